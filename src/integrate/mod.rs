@@ -1,0 +1,141 @@
+//! Time integrators as plain functions over slices: no ECS types here.
+//!
+//! Each integrator advances positions `x` (m) and velocities `v` (m/s) by one
+//! step `dt` (s), calling `accel(x, v, out)` to get accelerations (m/s²) as
+//! often as its scheme needs. All scratch memory lives in [`StepBuffers`],
+//! allocated once per cloth: no step allocates.
+//!
+//! | integrator | evaluations | order | stable for (one mode, MODEL.md §6.4) |
+//! |---|---|---|---|
+//! | [`explicit_euler`] | 1 | 1 | `dt ≤ c/ω²` |
+//! | [`symplectic_euler`] | 1 | 1 | `dt ≲ 2/ω` |
+//! | [`rk4`] | 4 | 4 | `dt ≲ 2.83/ω` |
+//!
+//! Pinned particles have zero acceleration, so every scheme moves them
+//! exactly along their prescribed velocity.
+
+mod explicit_euler;
+mod rk4;
+mod symplectic_euler;
+
+pub use explicit_euler::explicit_euler;
+pub use rk4::rk4;
+pub use symplectic_euler::symplectic_euler;
+
+use bevy::math::Vec3;
+
+use crate::settings::Integrator;
+
+/// Preallocated per-cloth scratch for the integrators (five vectors of one
+/// `Vec3` per particle).
+#[derive(Clone, Debug, Default)]
+pub struct StepBuffers {
+    /// Accelerations of the current stage (m/s²).
+    pub accel: Vec<Vec3>,
+    /// Stage positions (RK4), m.
+    pub stage_x: Vec<Vec3>,
+    /// Stage velocities (RK4), m/s.
+    pub stage_v: Vec<Vec3>,
+    /// Weighted sum of the position slopes (RK4), m/s.
+    pub sum_x: Vec<Vec3>,
+    /// Weighted sum of the velocity slopes (RK4), m/s².
+    pub sum_v: Vec<Vec3>,
+}
+
+impl StepBuffers {
+    /// Buffers for `n` particles.
+    pub fn new(n: usize) -> Self {
+        let mut b = Self::default();
+        b.resize(n);
+        b
+    }
+
+    /// Makes room for `n` particles; allocates only when `n` changes.
+    pub fn resize(&mut self, n: usize) {
+        for buf in [
+            &mut self.accel,
+            &mut self.stage_x,
+            &mut self.stage_v,
+            &mut self.sum_x,
+            &mut self.sum_v,
+        ] {
+            buf.resize(n, Vec3::ZERO);
+        }
+    }
+}
+
+/// Advances `(x, v)` by `dt` seconds with `integrator`. `buffers` must have
+/// been sized for `x.len()` particles (see [`StepBuffers::resize`]).
+pub fn step(
+    integrator: Integrator,
+    x: &mut [Vec3],
+    v: &mut [Vec3],
+    dt: f32,
+    buffers: &mut StepBuffers,
+    accel: impl FnMut(&[Vec3], &[Vec3], &mut [Vec3]),
+) {
+    match integrator {
+        Integrator::ExplicitEuler => explicit_euler(x, v, dt, &mut buffers.accel, accel),
+        Integrator::SymplecticEuler => symplectic_euler(x, v, dt, &mut buffers.accel, accel),
+        Integrator::Rk4 => rk4(x, v, dt, buffers, accel),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A damped spring–mass `ẍ = −ω²x − c ẋ` from x = 1, v = 0, and its
+    /// exact solution at time `t`.
+    const OMEGA: f32 = std::f32::consts::TAU;
+    const C: f32 = 0.5;
+
+    fn exact(t: f64) -> f64 {
+        let (w, c) = (OMEGA as f64, C as f64);
+        let zeta_w = c / 2.0;
+        let wd = (w * w - zeta_w * zeta_w).sqrt();
+        (-zeta_w * t).exp() * ((wd * t).cos() + zeta_w / wd * (wd * t).sin())
+    }
+
+    fn error(integrator: Integrator, dt: f32, t_end: f32) -> f64 {
+        let steps = (t_end / dt).round() as usize;
+        let (mut x, mut v) = ([Vec3::X], [Vec3::ZERO]);
+        let mut buffers = StepBuffers::new(1);
+        for _ in 0..steps {
+            step(integrator, &mut x, &mut v, dt, &mut buffers, |x, v, a| {
+                a[0] = -OMEGA * OMEGA * x[0] - C * v[0];
+            });
+        }
+        (x[0].x as f64 - exact(steps as f64 * dt as f64)).abs()
+    }
+
+    #[test]
+    fn first_order_schemes_halve_their_error_when_dt_halves() {
+        for integrator in [Integrator::ExplicitEuler, Integrator::SymplecticEuler] {
+            let ratio = error(integrator, 1e-3, 1.0) / error(integrator, 5e-4, 1.0);
+            assert!((1.8..2.2).contains(&ratio), "{integrator:?}: ratio {ratio}");
+        }
+    }
+
+    #[test]
+    fn rk4_cuts_its_error_sixteenfold_when_dt_halves() {
+        let ratio = error(Integrator::Rk4, 0.04, 1.0) / error(Integrator::Rk4, 0.02, 1.0);
+        assert!((13.0..19.0).contains(&ratio), "ratio {ratio}");
+    }
+
+    #[test]
+    fn pinned_particles_move_exactly_with_their_velocity() {
+        for integrator in Integrator::ALL {
+            let mut x = [Vec3::new(0.25, 1.0, -3.0)];
+            let start = x;
+            let mut v = [Vec3::ZERO];
+            let mut buffers = StepBuffers::new(1);
+            for _ in 0..1000 {
+                step(integrator, &mut x, &mut v, 1e-3, &mut buffers, |_, _, a| {
+                    a[0] = Vec3::ZERO
+                });
+            }
+            assert_eq!(x, start, "{integrator:?}");
+        }
+    }
+}

@@ -1,0 +1,188 @@
+//! # bevy_cloth
+//!
+//! Cloth for Bevy 0.19 with the particle model of Choi & Ko, *Stable but
+//! Responsive Cloth* (SIGGRAPH 2002), as reproduced by Sato & Yoshida's
+//! paper on interactive cloth, with Lander's spring cloth as the baseline
+//! it is compared with. The equations, errata and test values are in the
+//! repository's `MODEL.md` (see `README.md`).
+//!
+//! ## Getting started
+//!
+//! ```no_run
+//! use bevy::prelude::*;
+//! use bevy_cloth::prelude::*;
+//!
+//! fn main() {
+//!     App::new()
+//!         .add_plugins((DefaultPlugins, ClothPlugin::default()))
+//!         .add_systems(Startup, spawn)
+//!         .run();
+//! }
+//!
+//! fn spawn(mut commands: Commands) {
+//!     let cloth = ClothBuilder::new(15, 15)
+//!         .size(1.0, 1.0)
+//!         .position(Vec3::new(0.0, 1.5, 0.0))
+//!         .rotation(Quat::from_rotation_x(std::f32::consts::FRAC_PI_2))
+//!         .pin_corner(GridCorner::TopLeft)
+//!         .pin_corner(GridCorner::TopRight)
+//!         .build()
+//!         .expect("valid cloth");
+//!     commands.spawn(cloth);
+//! }
+//! ```
+//!
+//! ## How it is organised
+//!
+//! - A cloth is **one entity**: [`Cloth`] (the grid), [`ClothParticles`]
+//!   (positions, velocities, masses) and [`ClothConnections`] (Type 1 /
+//!   Type 2 links) hold contiguous arrays.
+//! - [`ClothSettings`] picks the model ([`ClothModel`]), the integrator
+//!   ([`Integrator`]) and the constants: the global [`ClothDefaults`]
+//!   resource, overridden per cloth by a `ClothSettings` component.
+//! - The step runs in `FixedUpdate` in the chained [`ClothSystems`] sets and
+//!   never reads the frame delta; the mesh follows in `PostUpdate`.
+//! - The numerics ([`model`], [`integrate`], [`step::step_cloth`]) are plain
+//!   functions over slices, usable without an `App`.
+//!
+//! ## Cargo features
+//!
+//! | feature | default | what it adds |
+//! |---|---|---|
+//! | `render` | yes | a default double-sided `StandardMaterial` for cloths that have none (pulls in `bevy_pbr`) |
+//! | `picking` | yes | `RayCastBackfaces` on cloth meshes so a double-sided cloth is picked from behind (pulls in `bevy_picking`) |
+//!
+//! Without default features the crate is headless: no renderer, no window,
+//! no `wgpu`; meshes are still kept up to date when `Assets<Mesh>` exists.
+
+#![warn(missing_docs)]
+
+pub mod anchor;
+pub mod cloth;
+pub mod connections;
+pub mod integrate;
+pub mod mesh;
+pub mod model;
+pub mod particles;
+pub mod schedule;
+pub mod settings;
+pub mod step;
+mod systems;
+
+use bevy::app::{App, FixedUpdate, Plugin};
+use bevy::ecs::schedule::IntoScheduleConfigs;
+
+pub use crate::anchor::{Anchor, ClothAnchors};
+pub use crate::cloth::{Cloth, ClothBuilder, ClothBundle, ClothError, GridCorner, GridEdge};
+pub use crate::connections::{ClothConnections, Link};
+pub use crate::particles::ClothParticles;
+pub use crate::schedule::ClothSystems;
+pub use crate::settings::{
+    ChoiKoParams, ClothDefaults, ClothModel, ClothSettings, Integrator, LanderParams, SpringParams,
+};
+pub use crate::step::{ClothForces, ClothStats};
+pub use crate::systems::check_cloth;
+
+/// The things most users need: `use bevy_cloth::prelude::*;`.
+pub mod prelude {
+    pub use crate::{
+        ClothAnchors, ClothBuilder, ClothConnections, ClothDefaults, ClothError, ClothForces,
+        ClothModel, ClothParticles, ClothPlugin, ClothSettings, ClothStats, ClothSystems,
+        GridCorner, GridEdge, Integrator, cloth::Cloth,
+    };
+}
+
+/// Adds cloth simulation: the [`ClothDefaults`] resource, the [`ClothSystems`]
+/// sets in `FixedUpdate` and the mesh sync in `PostUpdate`.
+///
+/// Needs Bevy's time (`MinimalPlugins` or `DefaultPlugins`); anchors need
+/// `TransformPlugin`; meshes need `Assets<Mesh>` (asset and mesh plugins).
+#[derive(Clone, Debug)]
+pub struct ClothPlugin {
+    /// With the `render` feature: give cloths that have no
+    /// `MeshMaterial3d<StandardMaterial>` a double-sided default material.
+    /// Turn off when your cloths use another material type.
+    pub default_material: bool,
+}
+
+impl Default for ClothPlugin {
+    fn default() -> Self {
+        Self {
+            default_material: true,
+        }
+    }
+}
+
+impl Plugin for ClothPlugin {
+    fn build(&self, app: &mut App) {
+        use schedule::ClothSystems::*;
+        app.init_resource::<ClothDefaults>()
+            .register_type::<ClothDefaults>()
+            .register_type::<ClothSettings>()
+            .register_type::<Cloth>()
+            .register_type::<ClothParticles>()
+            .register_type::<ClothConnections>()
+            .register_type::<ClothAnchors>()
+            .register_type::<ClothForces>()
+            .register_type::<ClothStats>()
+            .configure_sets(
+                FixedUpdate,
+                (Prepare, Crease, Forces, Integrate, Collide, Writeback).chain(),
+            )
+            .add_systems(
+                FixedUpdate,
+                (
+                    anchor::follow_anchors.in_set(Prepare),
+                    systems::step_cloths.in_set(Integrate),
+                    (anchor::snap_anchors, systems::finish_step)
+                        .chain()
+                        .in_set(Writeback),
+                ),
+            );
+        mesh::configure(app);
+        #[cfg(feature = "render")]
+        if self.default_material {
+            app.add_systems(
+                bevy::app::PostUpdate,
+                render::attach_default_material.in_set(mesh::ClothMeshSystems::Attach),
+            );
+        }
+    }
+}
+
+#[cfg(feature = "render")]
+mod render {
+    use bevy::asset::{Assets, Handle};
+    use bevy::color::Color;
+    use bevy::pbr::{MeshMaterial3d, StandardMaterial};
+    use bevy::prelude::{Commands, Entity, Local, Query, ResMut, With, Without};
+
+    use crate::cloth::Cloth;
+
+    /// Gives cloths without a material a double-sided, unculled one, so the
+    /// back of the cloth is lit and visible.
+    pub(crate) fn attach_default_material(
+        mut commands: Commands,
+        materials: Option<ResMut<Assets<StandardMaterial>>>,
+        mut handle: Local<Option<Handle<StandardMaterial>>>,
+        cloths: Query<Entity, (With<Cloth>, Without<MeshMaterial3d<StandardMaterial>>)>,
+    ) {
+        let Some(mut materials) = materials else {
+            return;
+        };
+        for entity in &cloths {
+            let material = handle.get_or_insert_with(|| {
+                materials.add(StandardMaterial {
+                    base_color: Color::srgb(0.75, 0.2, 0.2),
+                    perceptual_roughness: 0.9,
+                    double_sided: true,
+                    cull_mode: None,
+                    ..Default::default()
+                })
+            });
+            commands
+                .entity(entity)
+                .try_insert(MeshMaterial3d(material.clone()));
+        }
+    }
+}

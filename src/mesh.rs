@@ -1,0 +1,229 @@
+//! The live mesh: every cloth gets a [`Mesh3d`] whose positions and smooth
+//! normals follow the particles after each frame's fixed steps.
+//!
+//! - Runs in `PostUpdate` ([`ClothMeshSystems`]), before the asset events, so
+//!   Bevy's bounds system sees the changed mesh in the same frame and keeps
+//!   the `Aabb` right for culling and picking (no `NoFrustumCulling`, no
+//!   `NoAutoAabb` needed).
+//! - Writes go through `Mesh::try_attribute_mut`; a mesh that was taken by
+//!   the render world, lost an attribute or changed size is rebuilt, never a
+//!   panic.
+//! - Vertex positions are the particles' world positions brought into the
+//!   cloth entity's local space, so any cloth `Transform` renders correctly.
+//! - Only cloths whose particles changed are written: a paused cloth costs
+//!   nothing here.
+//! - With no `Assets<Mesh>` (a headless app without asset plugins), none of
+//!   this runs.
+
+use bevy::asset::{AssetEventSystems, Assets, RenderAssetUsages};
+use bevy::ecs::schedule::SystemSet;
+use bevy::math::{Affine3A, Vec3};
+use bevy::mesh::{Indices, Mesh, Mesh3d, PrimitiveTopology, VertexAttributeValues};
+use bevy::prelude::{Changed, Commands, Entity, GlobalTransform, Query, ResMut, Without};
+
+use crate::cloth::Cloth;
+use crate::particles::ClothParticles;
+
+/// The `PostUpdate` sets that keep cloth meshes in step with the simulation.
+#[derive(SystemSet, Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum ClothMeshSystems {
+    /// New cloths get a mesh (and, with the `render` feature, a default
+    /// double-sided material unless they have one).
+    Attach,
+    /// Positions and normals are written into the mesh asset.
+    Sync,
+}
+
+/// Area-weighted smooth vertex normals of a `cols × rows` grid whose
+/// triangles are those of [`Cloth::triangles`]. `x` in any length unit;
+/// `out` receives unit vectors (+Y where a vertex has no area around it).
+pub fn grid_normals(cols: u32, rows: u32, x: &[Vec3], out: &mut [[f32; 3]]) {
+    out.fill([0.0; 3]);
+    let mut add = |p: u32, n: Vec3| {
+        let o = &mut out[p as usize];
+        *o = (Vec3::from_array(*o) + n).to_array();
+    };
+    for j in 0..rows - 1 {
+        for i in 0..cols - 1 {
+            let (a, b) = (j * cols + i, j * cols + i + 1);
+            let (c, d) = (b + cols, a + cols);
+            let (xa, xb, xc, xd) = (x[a as usize], x[b as usize], x[c as usize], x[d as usize]);
+            // Twice the area times the unit normal of (a, d, c) and (a, c, b).
+            let n1 = (xd - xa).cross(xc - xa);
+            let n2 = (xc - xa).cross(xb - xa);
+            for (p, n) in [(a, n1 + n2), (d, n1), (c, n1 + n2), (b, n2)] {
+                add(p, n);
+            }
+        }
+    }
+    for o in out.iter_mut() {
+        *o = Vec3::from_array(*o)
+            .try_normalize()
+            .unwrap_or(Vec3::Y)
+            .to_array();
+    }
+}
+
+/// A mesh for `cloth` with vertices at `positions` (the mesh's local space):
+/// positions, smooth normals, UVs in `[0, 1]²` along columns and rows, and
+/// the triangles of [`Cloth::triangles`]. Kept in both worlds so the CPU copy
+/// can be rewritten and ray-cast for picking.
+pub fn cloth_mesh(cloth: &Cloth, positions: &[Vec3]) -> Mesh {
+    let mut normals = vec![[0.0; 3]; positions.len()];
+    grid_normals(cloth.cols, cloth.rows, positions, &mut normals);
+    let (cu, rv) = ((cloth.cols - 1) as f32, (cloth.rows - 1) as f32);
+    let uvs: Vec<[f32; 2]> = (0..cloth.len() as u32)
+        .map(|p| [(p % cloth.cols) as f32 / cu, (p / cloth.cols) as f32 / rv])
+        .collect();
+    let indices: Vec<u32> = cloth.triangles().into_iter().flatten().collect();
+    Mesh::new(
+        PrimitiveTopology::TriangleList,
+        RenderAssetUsages::default(),
+    )
+    .with_inserted_attribute(
+        Mesh::ATTRIBUTE_POSITION,
+        positions.iter().map(|p| p.to_array()).collect::<Vec<_>>(),
+    )
+    .with_inserted_attribute(Mesh::ATTRIBUTE_NORMAL, normals)
+    .with_inserted_attribute(Mesh::ATTRIBUTE_UV_0, uvs)
+    .with_inserted_indices(Indices::U32(indices))
+}
+
+/// World-to-local transform of a cloth entity, or `None` for the identity.
+fn to_local(transform: Option<&GlobalTransform>) -> Option<Affine3A> {
+    transform
+        .map(|t| t.affine())
+        .filter(|a| *a != Affine3A::IDENTITY)
+        .map(|a| a.inverse())
+}
+
+fn local_positions(particles: &ClothParticles, inv: Option<Affine3A>) -> Vec<Vec3> {
+    match inv {
+        Some(inv) => particles
+            .positions
+            .iter()
+            .map(|&p| inv.transform_point3(p))
+            .collect(),
+        None => particles.positions.clone(),
+    }
+}
+
+/// How many vertices `mesh` has (`None` without readable positions), so a
+/// resized cloth gets a new mesh.
+fn vertex_count(mesh: &Mesh) -> Option<usize> {
+    match mesh.try_attribute(Mesh::ATTRIBUTE_POSITION) {
+        Ok(VertexAttributeValues::Float32x3(p)) => Some(p.len()),
+        _ => None,
+    }
+}
+
+/// [`ClothMeshSystems::Attach`]: gives each new cloth its mesh.
+pub(crate) fn attach_cloth_meshes(
+    mut commands: Commands,
+    mut meshes: ResMut<Assets<Mesh>>,
+    cloths: Query<(Entity, &Cloth, &ClothParticles, Option<&GlobalTransform>), Without<Mesh3d>>,
+) {
+    for (entity, cloth, particles, transform) in &cloths {
+        if particles.len() != cloth.len() || cloth.cols < 2 || cloth.rows < 2 {
+            continue;
+        }
+        let positions = local_positions(particles, to_local(transform));
+        let handle = meshes.add(cloth_mesh(cloth, &positions));
+        let mut e = commands.entity(entity);
+        e.try_insert(Mesh3d(handle));
+        #[cfg(feature = "picking")]
+        e.try_insert(bevy::picking::mesh_picking::ray_cast::RayCastBackfaces);
+    }
+}
+
+/// [`ClothMeshSystems::Sync`]: writes positions and normals of every cloth
+/// whose particles changed.
+pub(crate) fn sync_cloth_meshes(
+    mut meshes: ResMut<Assets<Mesh>>,
+    cloths: Query<
+        (&Cloth, &ClothParticles, &Mesh3d, Option<&GlobalTransform>),
+        Changed<ClothParticles>,
+    >,
+) {
+    for (cloth, particles, mesh3d, transform) in &cloths {
+        let n = cloth.len();
+        if particles.len() != n || cloth.cols < 2 || cloth.rows < 2 {
+            continue;
+        }
+        let Some(mut mesh) = meshes.get_mut(&mesh3d.0) else {
+            continue;
+        };
+        let inv = to_local(transform);
+        if vertex_count(&mesh) != Some(n) {
+            *mesh = cloth_mesh(cloth, &local_positions(particles, inv));
+            continue;
+        }
+        if let Ok(VertexAttributeValues::Float32x3(out)) =
+            mesh.try_attribute_mut(Mesh::ATTRIBUTE_POSITION)
+        {
+            for (o, &p) in out.iter_mut().zip(&particles.positions) {
+                *o = inv.map_or(p, |inv| inv.transform_point3(p)).to_array();
+            }
+        }
+        match mesh.try_attribute_mut(Mesh::ATTRIBUTE_NORMAL) {
+            Ok(VertexAttributeValues::Float32x3(out)) if out.len() == n => {
+                grid_normals(cloth.cols, cloth.rows, &particles.positions, out);
+                if let Some(inv) = inv {
+                    for o in out.iter_mut() {
+                        let local = inv.transform_vector3(Vec3::from_array(*o));
+                        *o = local.try_normalize().unwrap_or(Vec3::Y).to_array();
+                    }
+                }
+            }
+            _ => *mesh = cloth_mesh(cloth, &local_positions(particles, inv)),
+        }
+    }
+}
+
+/// Orders the mesh sets in `PostUpdate` before the asset events, so bounds
+/// are recomputed in the same frame.
+pub(crate) fn configure(app: &mut bevy::app::App) {
+    use bevy::app::PostUpdate;
+    use bevy::ecs::schedule::{IntoScheduleConfigs, common_conditions::resource_exists};
+    app.configure_sets(
+        PostUpdate,
+        (ClothMeshSystems::Attach, ClothMeshSystems::Sync)
+            .chain()
+            .before(AssetEventSystems)
+            .run_if(resource_exists::<Assets<Mesh>>),
+    )
+    .add_systems(
+        PostUpdate,
+        (
+            attach_cloth_meshes.in_set(ClothMeshSystems::Attach),
+            sync_cloth_meshes.in_set(ClothMeshSystems::Sync),
+        ),
+    );
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn flat_grid_normals_are_up_and_a_fold_tilts_them() {
+        let mut x: Vec<Vec3> = (0..9)
+            .map(|p| Vec3::new((p % 3) as f32, 0.0, (p / 3) as f32))
+            .collect();
+        let mut n = vec![[0.0; 3]; 9];
+        grid_normals(3, 3, &x, &mut n);
+        assert!(
+            n.iter()
+                .all(|v| (Vec3::from_array(*v) - Vec3::Y).length() < 1e-6)
+        );
+        // Lift the last column: the normals there lean towards −X.
+        for p in [2, 5, 8] {
+            x[p].y = 1.0;
+        }
+        grid_normals(3, 3, &x, &mut n);
+        assert!(n[5][0] < -0.1 && (Vec3::from_array(n[5]).length() - 1.0).abs() < 1e-6);
+        // Degenerate (all particles at one point): no NaN.
+        grid_normals(3, 3, &[Vec3::ONE; 9], &mut n);
+        assert!(n.iter().all(|v| *v == [0.0, 1.0, 0.0]));
+    }
+}

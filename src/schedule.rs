@@ -1,0 +1,39 @@
+//! [`ClothSystems`]: the public, chained system sets of one cloth step.
+//!
+//! Everything runs in [`FixedUpdate`](bevy::app::FixedUpdate), once per fixed
+//! step, in this order:
+//!
+//! 1. [`Prepare`](ClothSystems::Prepare): anchored particles take their
+//!    anchor's velocity for this step.
+//! 2. [`Crease`](ClothSystems::Crease): crease edits to the connections.
+//! 3. [`Forces`](ClothSystems::Forces): external forces are added to
+//!    [`ClothForces`](crate::step::ClothForces); order your own force
+//!    systems (wind, explosions) here.
+//! 4. [`Integrate`](ClothSystems::Integrate): `substeps` integrator steps of
+//!    the internal forces plus gravity, damping and the external forces.
+//! 5. [`Collide`](ClothSystems::Collide): collision response.
+//! 6. [`Writeback`](ClothSystems::Writeback): anchored particles snap exactly
+//!    to their anchors, external forces are cleared, [`ClothStats`](crate::step::ClothStats)
+//!    are measured. Read the stepped state after this set.
+//!
+//! The rendered mesh is written later, in `PostUpdate`
+//! ([`ClothMeshSystems`](crate::mesh::ClothMeshSystems)).
+
+use bevy::ecs::schedule::SystemSet;
+
+/// The stages of a cloth step in `FixedUpdate`, chained in declaration order.
+#[derive(SystemSet, Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum ClothSystems {
+    /// Anchors hand their motion to the pinned particles they carry.
+    Prepare,
+    /// Creases edit connection rest lengths before forces are computed.
+    Crease,
+    /// External forces for this step are accumulated; add yours here.
+    Forces,
+    /// The cloths are integrated over the fixed step.
+    Integrate,
+    /// Particles are pushed out of colliders.
+    Collide,
+    /// Pins are made exact, per-step buffers cleared, statistics measured.
+    Writeback,
+}

@@ -1,0 +1,279 @@
+//! [`ClothSettings`]: force model, integrator, material constants and stepping.
+//!
+//! [`ClothDefaults`] is a global [`Resource`] holding the settings every cloth
+//! uses; a [`ClothSettings`] component on a cloth overrides it for that cloth
+//! (like avian's global gravity with a per-body scale). Both hold the same
+//! type, so an override starts from `ClothDefaults`' value or
+//! `ClothSettings::default()`. Everything reflects, so an inspector can edit
+//! it live. (In Bevy 0.19 a resource is itself a component, so one type
+//! cannot be both.)
+
+use bevy::math::Vec3;
+use bevy::prelude::{
+    Component, Deref, DerefMut, ReflectComponent, ReflectDefault, ReflectResource, Resource,
+};
+use bevy::reflect::Reflect;
+
+use crate::cloth::ClothError;
+
+/// Which internal force model a cloth uses.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Reflect)]
+pub enum ClothModel {
+    /// Choi & Ko (2002) as in the seed: tension-only Type 1 links and
+    /// buckling Type 2 links (MODEL.md §2–§3).
+    #[default]
+    ChoiKo,
+    /// Lander (1999): two-sided damped springs, structural, shear and ±2
+    /// axial bend (MODEL.md §7); the seed's baseline.
+    Lander,
+}
+
+/// Which time integrator advances a cloth (MODEL.md §6).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Reflect)]
+pub enum Integrator {
+    /// The seed's explicit Euler (eq. 6): positions move with the *old*
+    /// velocity. Stable only for `dt ≤ c/ω²` (MODEL.md §6.1); kept to
+    /// reproduce the seed, not for games.
+    ExplicitEuler,
+    /// Symplectic Euler: positions move with the *new* velocity. Same cost
+    /// as explicit Euler, stable for `dt ≲ 2/ω_max` (MODEL.md §6.2).
+    #[default]
+    SymplecticEuler,
+    /// Classical Runge–Kutta, 4 force evaluations a step, stable for
+    /// `dt ≲ 2.83/ω_max` (MODEL.md §6.3).
+    Rk4,
+}
+
+impl Integrator {
+    /// Every integrator, in the order the tables list them.
+    pub const ALL: [Integrator; 3] = [Self::ExplicitEuler, Self::SymplecticEuler, Self::Rk4];
+
+    /// Force evaluations per step.
+    pub fn evaluations_per_step(self) -> u32 {
+        match self {
+            Self::ExplicitEuler | Self::SymplecticEuler => 1,
+            Self::Rk4 => 4,
+        }
+    }
+}
+
+/// Choi–Ko material constants (MODEL.md §11 defaults: cotton, 1 m, 15×15).
+#[derive(Clone, Copy, Debug, PartialEq, Reflect)]
+#[reflect(Default)]
+pub struct ChoiKoParams {
+    /// Type 1 spring constant `k` in N/m (all Type 1 links).
+    pub stiffness: f32,
+    /// Flexural rigidity `k_b` of the Type 2 links in N·m².
+    pub bending_rigidity: f32,
+    /// Slope `c_b` of the linear pre-buckling ramp in N/m (seed eq. 4; the
+    /// seed sets it to about `k`).
+    pub buckling_slope: f32,
+    /// Axial pair damping `k_d` on taut Type 1 links in N·s/m (MODEL.md §4);
+    /// 0 turns it off.
+    pub pair_damping: f32,
+}
+
+impl Default for ChoiKoParams {
+    fn default() -> Self {
+        Self {
+            stiffness: 1000.0,
+            bending_rigidity: 5e-7,
+            buckling_slope: 1000.0,
+            pair_damping: 0.05,
+        }
+    }
+}
+
+/// One family of Lander springs.
+#[derive(Clone, Copy, Debug, PartialEq, Reflect)]
+pub struct SpringParams {
+    /// Spring constant `k_s` in N/m.
+    pub stiffness: f32,
+    /// Axial damping `k_d` in N·s/m.
+    pub damping: f32,
+}
+
+/// Lander's three spring families (MODEL.md §7).
+///
+/// The defaults keep his demo's ratios (bend = 0.6 × structural) scaled to
+/// the Choi–Ko default `k` = 1000 N/m, so the two models compare at the same
+/// stretch stiffness.
+#[derive(Clone, Copy, Debug, PartialEq, Reflect)]
+#[reflect(Default)]
+pub struct LanderParams {
+    /// ±1 axial springs.
+    pub structural: SpringParams,
+    /// ±1 diagonal springs.
+    pub shear: SpringParams,
+    /// ±2 axial springs.
+    pub bend: SpringParams,
+}
+
+impl Default for LanderParams {
+    fn default() -> Self {
+        let spring = |stiffness| SpringParams {
+            stiffness,
+            damping: 0.05,
+        };
+        Self {
+            structural: spring(1000.0),
+            shear: spring(1000.0),
+            bend: spring(600.0),
+        }
+    }
+}
+
+/// How a cloth is simulated: on a cloth entity, overrides [`ClothDefaults`].
+///
+/// The default is the cotton cloth of MODEL.md §11 under symplectic Euler
+/// with 40 substeps per fixed step: at Bevy's default 64 Hz that is a
+/// 0.39 ms substep, inside symplectic Euler's 0.55 ms bound for this cloth.
+#[derive(Component, Clone, Debug, PartialEq, Reflect)]
+#[reflect(Component, Default)]
+pub struct ClothSettings {
+    /// Internal force model.
+    pub model: ClothModel,
+    /// Time integrator.
+    pub integrator: Integrator,
+    /// Integrator steps per `FixedUpdate` step (≥ 1). The substep is the
+    /// fixed timestep divided by this.
+    pub substeps: u32,
+    /// Gravitational acceleration in m/s².
+    pub gravity: Vec3,
+    /// Absolute velocity damping `c` in s⁻¹: the acceleration `−c·v` of seed
+    /// eq. 5. Free-fall terminal speed is `|g|/c`.
+    pub damping: f32,
+    /// Constants of the Choi–Ko model.
+    pub choi_ko: ChoiKoParams,
+    /// Constants of Lander's model.
+    pub lander: LanderParams,
+}
+
+impl Default for ClothSettings {
+    fn default() -> Self {
+        Self {
+            model: ClothModel::ChoiKo,
+            integrator: Integrator::SymplecticEuler,
+            substeps: 40,
+            gravity: Vec3::new(0.0, -9.81, 0.0),
+            damping: 2.0,
+            choi_ko: ChoiKoParams::default(),
+            lander: LanderParams::default(),
+        }
+    }
+}
+
+/// The settings of every cloth that has no [`ClothSettings`] of its own.
+#[derive(Resource, Clone, Debug, Default, PartialEq, Reflect, Deref, DerefMut)]
+#[reflect(Resource, Default)]
+pub struct ClothDefaults(pub ClothSettings);
+
+/// Largest accepted [`ClothSettings::substeps`].
+pub const MAX_SUBSTEPS: u32 = 100_000;
+
+fn positive(name: &'static str, value: f32) -> Result<(), ClothError> {
+    if value.is_finite() && value > 0.0 {
+        Ok(())
+    } else {
+        Err(ClothError::InvalidStiffness { name, value })
+    }
+}
+
+fn non_negative(name: &'static str, value: f32) -> Result<(), ClothError> {
+    if value.is_finite() && value >= 0.0 {
+        Ok(())
+    } else {
+        Err(ClothError::InvalidDamping { name, value })
+    }
+}
+
+impl ClothSettings {
+    /// Checks every constant: stiffnesses finite and positive, dampings
+    /// finite and non-negative, gravity finite, `1 ≤ substeps ≤ 100 000`.
+    pub fn validate(&self) -> Result<(), ClothError> {
+        if self.substeps == 0 || self.substeps > MAX_SUBSTEPS {
+            return Err(ClothError::InvalidSubsteps(self.substeps));
+        }
+        if !self.gravity.is_finite() {
+            return Err(ClothError::InvalidGravity(self.gravity));
+        }
+        non_negative("damping", self.damping)?;
+        let ck = &self.choi_ko;
+        positive("choi_ko.stiffness", ck.stiffness)?;
+        positive("choi_ko.bending_rigidity", ck.bending_rigidity)?;
+        positive("choi_ko.buckling_slope", ck.buckling_slope)?;
+        non_negative("choi_ko.pair_damping", ck.pair_damping)?;
+        for (name, damping, spring) in [
+            (
+                "lander.structural",
+                "lander.structural.damping",
+                self.lander.structural,
+            ),
+            ("lander.shear", "lander.shear.damping", self.lander.shear),
+            ("lander.bend", "lander.bend.damping", self.lander.bend),
+        ] {
+            positive(name, spring.stiffness)?;
+            non_negative(damping, spring.damping)?;
+        }
+        Ok(())
+    }
+
+    /// The same settings with another model.
+    pub fn with_model(mut self, model: ClothModel) -> Self {
+        self.model = model;
+        self
+    }
+
+    /// The same settings with another integrator and substep count.
+    pub fn with_integrator(mut self, integrator: Integrator, substeps: u32) -> Self {
+        self.integrator = integrator;
+        self.substeps = substeps;
+        self
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn defaults_validate_and_bad_values_do_not() {
+        assert!(ClothSettings::default().validate().is_ok());
+        let bad = |f: fn(&mut ClothSettings)| {
+            let mut s = ClothSettings::default();
+            f(&mut s);
+            s.validate().unwrap_err()
+        };
+        assert!(matches!(
+            bad(|s| s.substeps = 0),
+            ClothError::InvalidSubsteps(0)
+        ));
+        assert!(matches!(
+            bad(|s| s.gravity.y = f32::NAN),
+            ClothError::InvalidGravity(_)
+        ));
+        assert!(matches!(
+            bad(|s| s.damping = -1.0),
+            ClothError::InvalidDamping { .. }
+        ));
+        assert!(matches!(
+            bad(|s| s.choi_ko.stiffness = 0.0),
+            ClothError::InvalidStiffness {
+                name: "choi_ko.stiffness",
+                ..
+            }
+        ));
+        assert!(matches!(
+            bad(|s| s.choi_ko.bending_rigidity = f32::INFINITY),
+            ClothError::InvalidStiffness { .. }
+        ));
+        assert!(matches!(
+            bad(|s| s.lander.bend.stiffness = -3.0),
+            ClothError::InvalidStiffness { .. }
+        ));
+        assert!(matches!(
+            bad(|s| s.lander.shear.damping = f32::NAN),
+            ClothError::InvalidDamping { .. }
+        ));
+    }
+}

@@ -1,0 +1,108 @@
+//! One fixed step of one cloth, as a plain function ([`step_cloth`]), and the
+//! small per-cloth components the step reads and writes.
+
+use bevy::math::Vec3;
+use bevy::prelude::{Component, Reflect, ReflectComponent};
+
+use crate::connections::{ClothConnections, max_strain};
+use crate::integrate::{self, StepBuffers};
+use crate::model::Dynamics;
+use crate::particles::ClothParticles;
+use crate::settings::ClothSettings;
+
+/// External forces on each particle in N, held constant through one fixed
+/// step and cleared after it.
+///
+/// Systems in [`ClothSystems::Forces`](crate::schedule::ClothSystems::Forces)
+/// add to it (wind, a grab spring, a game's explosion); an empty vector
+/// means no external force and costs nothing.
+#[derive(Component, Clone, Debug, Default, PartialEq, Reflect)]
+#[reflect(Component)]
+pub struct ClothForces(pub Vec<Vec3>);
+
+impl ClothForces {
+    /// Adds `force` (N) to particle `p`, sizing the buffer for `count`
+    /// particles on first use. Out-of-range indices are ignored.
+    pub fn add(&mut self, p: usize, force: Vec3, count: usize) {
+        if self.0.len() != count {
+            self.0.clear();
+            self.0.resize(count, Vec3::ZERO);
+        }
+        if let Some(f) = self.0.get_mut(p) {
+            *f += force;
+        }
+    }
+}
+
+/// Preallocated integrator scratch for one cloth (not reflected).
+#[derive(Component, Clone, Debug, Default)]
+pub struct ClothScratch {
+    /// Stage buffers of the integrators.
+    pub buffers: StepBuffers,
+    /// Whether the cloth was skipped for invalid settings, so the warning is
+    /// logged once.
+    pub(crate) warned_invalid: bool,
+}
+
+/// What the last fixed step of a cloth looked like.
+#[derive(Component, Clone, Debug, Default, PartialEq, Reflect)]
+#[reflect(Component)]
+pub struct ClothStats {
+    /// Fixed steps simulated so far.
+    pub steps: u64,
+    /// Largest stretch `(ℓ − L)/L` of the stretch links (Type 1 for Choi–Ko,
+    /// structural and shear for Lander), dimensionless.
+    pub max_strain: f32,
+    /// Kinetic energy of the free particles in J.
+    pub kinetic_energy: f32,
+    /// Whether every position and velocity is finite.
+    pub finite: bool,
+}
+
+impl ClothStats {
+    /// Measures `particles` against `connections`.
+    pub fn measure(&mut self, particles: &ClothParticles, connections: &ClothConnections) {
+        self.max_strain = max_strain(connections.type1(), &particles.positions);
+        self.kinetic_energy = particles.kinetic_energy();
+        self.finite = particles.is_finite();
+    }
+}
+
+/// Advances one cloth by `dt` seconds in `settings.substeps` equal substeps.
+///
+/// `external` holds one force per particle in N, or is empty. `buffers` are
+/// resized if the particle count changed (the only allocation). Settings are
+/// assumed valid ([`ClothSettings::validate`]); the ECS layer checks them.
+pub fn step_cloth(
+    particles: &mut ClothParticles,
+    connections: &ClothConnections,
+    settings: &ClothSettings,
+    external: &[Vec3],
+    buffers: &mut StepBuffers,
+    dt: f32,
+) {
+    buffers.resize(particles.len());
+    let h = dt / settings.substeps.max(1) as f32;
+    let ClothParticles {
+        positions,
+        velocities,
+        inverse_masses,
+        ..
+    } = particles;
+    let dynamics = Dynamics {
+        settings,
+        connections,
+        inverse_masses,
+        external,
+    };
+    for _ in 0..settings.substeps {
+        integrate::step(
+            settings.integrator,
+            positions,
+            velocities,
+            h,
+            buffers,
+            |x, v, a| dynamics.accelerations(x, v, a),
+        );
+    }
+}
