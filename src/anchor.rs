@@ -25,10 +25,13 @@ pub struct Anchor {
 }
 
 /// Particles of this cloth that follow other entities. Each anchored
-/// particle is pinned (inverse mass 0) and given, every fixed step, the
-/// velocity that brings it to its target point by the step's end, where it
-/// is then placed exactly. The cloth feels the anchor's motion through its
-/// connections.
+/// particle is pinned (inverse mass 0) and given, for the duration of every
+/// fixed step, the velocity that brings it to its target point by the step's
+/// end; it is then placed exactly on that point and its velocity reset to 0.
+/// The cloth feels the anchor's motion through its connections.
+///
+/// Anchors read `GlobalTransform`, which Bevy propagates in `PostUpdate`: a
+/// `Transform` written in `Update` reaches the cloth one frame later.
 ///
 /// An anchor whose target has no `GlobalTransform` (or was despawned) is
 /// skipped: its particle stays pinned where it is.
@@ -122,15 +125,18 @@ pub(crate) fn follow_anchors(
 }
 
 /// [`ClothSystems::Writeback`](crate::schedule::ClothSystems::Writeback):
-/// places anchored particles exactly on their targets.
+/// places anchored particles exactly on their targets, at rest until the
+/// next step sets their velocity again (so a detached or orphaned pin stays
+/// put instead of drifting).
 pub(crate) fn snap_anchors(mut cloths: Query<(&ClothAnchors, &mut ClothParticles)>) {
     for (anchors, mut particles) in &mut cloths {
         for anchor in &anchors.0 {
-            if let (Some(goal), Some(x)) = (
-                anchor.goal,
-                particles.positions.get_mut(anchor.particle as usize),
-            ) {
-                *x = goal;
+            let p = anchor.particle as usize;
+            if let Some(goal) = anchor.goal
+                && p < particles.len()
+            {
+                particles.positions[p] = goal;
+                particles.velocities[p] = Vec3::ZERO;
             }
         }
     }

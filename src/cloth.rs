@@ -544,8 +544,10 @@ mod tests {
             ClothBuilder::new(3, 3).build_with(bad).unwrap_err(),
             InvalidStiffness { .. }
         ));
-        let mut bad = ClothSettings::default();
-        bad.damping = f32::NAN;
+        let bad = ClothSettings {
+            damping: f32::NAN,
+            ..Default::default()
+        };
         assert!(matches!(
             ClothBuilder::new(3, 3).build_with(bad).unwrap_err(),
             InvalidDamping { .. }

@@ -86,9 +86,9 @@ pub use crate::systems::check_cloth;
 /// The things most users need: `use bevy_cloth::prelude::*;`.
 pub mod prelude {
     pub use crate::{
-        ClothAnchors, ClothBuilder, ClothConnections, ClothDefaults, ClothError, ClothForces,
-        ClothModel, ClothParticles, ClothPlugin, ClothSettings, ClothStats, ClothSystems,
-        GridCorner, GridEdge, Integrator, cloth::Cloth,
+        ClothAnchors, ClothBuilder, ClothBundle, ClothConnections, ClothDefaults, ClothError,
+        ClothForces, ClothModel, ClothParticles, ClothPlugin, ClothSettings, ClothStats,
+        ClothSystems, GridCorner, GridEdge, Integrator, cloth::Cloth,
     };
 }
 

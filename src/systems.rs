@@ -39,6 +39,10 @@ pub fn check_cloth(
 ///
 /// A cloth whose settings or arrays are invalid is skipped, with one warning
 /// until it is fixed.
+#[expect(
+    clippy::type_complexity,
+    reason = "one query gathers what the step reads"
+)]
 pub(crate) fn step_cloths(
     time: Res<Time<Fixed>>,
     defaults: Res<ClothDefaults>,

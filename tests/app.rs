@@ -1,0 +1,204 @@
+//! Headless app tests: `MinimalPlugins` + `ClothPlugin`, `FixedUpdate`
+//! stepped an exact number of times (DESIGN.md §8 recipe).
+
+mod common;
+
+use std::time::Duration;
+
+use bevy::asset::AssetPlugin;
+use bevy::mesh::{Mesh, Mesh3d, VertexAttributeValues};
+use bevy::prelude::*;
+use bevy::time::TimeUpdateStrategy;
+use bevy::transform::TransformPlugin;
+use bevy_cloth::prelude::*;
+use common::sheet as hanging;
+
+/// An app whose every `update()` after the first runs exactly one 60 Hz
+/// fixed step.
+fn app() -> App {
+    let mut app = App::new();
+    app.add_plugins((MinimalPlugins, TransformPlugin, ClothPlugin::default()))
+        .insert_resource(Time::<Fixed>::from_hz(60.0))
+        .insert_resource(TimeUpdateStrategy::FixedTimesteps(1));
+    app.update(); // the first update runs no fixed step
+    app
+}
+
+fn particles(app: &App, e: Entity) -> &ClothParticles {
+    app.world().get::<ClothParticles>(e).unwrap()
+}
+
+#[test]
+fn hanging_cloth_keeps_pins_exact_and_hangs_below_them() {
+    let mut app = app();
+    let cloth = app.world_mut().spawn(hanging(15)).id();
+    let start = particles(&app, cloth).positions.clone();
+    for _ in 0..120 {
+        app.update();
+    }
+    let p = particles(&app, cloth);
+    assert_eq!(app.world().get::<ClothStats>(cloth).unwrap().steps, 120);
+    // Pins: exactly where they started, bit for bit.
+    for pin in [0, 14] {
+        assert!(p.is_pinned(pin));
+        assert_eq!(p.positions[pin], start[pin]);
+    }
+    // Everything finite; every free particle at or below the pins.
+    assert!(p.is_finite());
+    let top = start[0].y;
+    assert!(p.positions.iter().all(|x| x.y <= top + 1e-4));
+    // The free far corners have swung down well below the pins.
+    assert!(p.positions[224].y < top - 0.5, "{}", p.positions[224]);
+    let stats = app.world().get::<ClothStats>(cloth).unwrap();
+    assert!(stats.finite && stats.max_strain < 0.05, "{stats:?}");
+}
+
+#[test]
+fn a_moving_anchor_carries_its_particles_exactly() {
+    let mut app = app();
+    let pole = app.world_mut().spawn(Transform::default()).id();
+    let cloth = app
+        .world_mut()
+        .spawn((
+            hanging(15),
+            ClothAnchors::default().with(0, pole).with(14, pole),
+        ))
+        .id();
+    let start = particles(&app, cloth).positions.clone();
+    app.update(); // let the anchors take their offsets
+    // Move the pole 0.5 m/s along +X and up 0.25 m/s, one step at a time.
+    for k in 1..=120 {
+        let t = k as f32 / 60.0;
+        app.world_mut()
+            .get_mut::<Transform>(pole)
+            .unwrap()
+            .translation = Vec3::new(0.5 * t, 0.25 * t, 0.0);
+        app.update();
+    }
+    // Anchored particles sit exactly on the pole once its last move has
+    // propagated (anchors read `GlobalTransform`, which Bevy updates in `PostUpdate`, so they
+    // trail a `Transform` written in `Update` by one frame).
+    app.update();
+    let p = particles(&app, cloth);
+    let moved = Vec3::new(1.0, 0.5, 0.0);
+    for pin in [0, 14] {
+        assert!(
+            (p.positions[pin] - (start[pin] + moved)).length() < 1e-5,
+            "{}",
+            p.positions[pin]
+        );
+    }
+    assert!(p.is_finite());
+    // The cloth came along: its centre moved most of the way.
+    let centre = p.positions[7 * 15 + 7];
+    assert!(centre.x > start[7 * 15 + 7].x + 0.8, "{centre}");
+    // A despawned anchor leaves the particle pinned where it is, no panic.
+    app.world_mut().despawn(pole);
+    let here = particles(&app, cloth).positions[0];
+    app.update();
+    assert_eq!(particles(&app, cloth).positions[0], here);
+}
+
+#[test]
+fn per_cloth_settings_override_the_defaults() {
+    let mut app = app();
+    let falls = app.world_mut().spawn(hanging(5)).id();
+    let floats = app
+        .world_mut()
+        .spawn((
+            hanging(5),
+            ClothSettings {
+                gravity: Vec3::ZERO,
+                ..default()
+            },
+        ))
+        .id();
+    let start = particles(&app, floats).positions.clone();
+    for _ in 0..30 {
+        app.update();
+    }
+    assert_eq!(particles(&app, floats).positions, start);
+    assert!(particles(&app, falls).positions[24].y < start[24].y - 0.01);
+    // Changing the global defaults reaches the cloth without an override.
+    app.world_mut().resource_mut::<ClothDefaults>().gravity = Vec3::ZERO;
+    app.world_mut().resource_mut::<ClothDefaults>().damping = 1000.0;
+    for _ in 0..30 {
+        app.update();
+    }
+    let y = particles(&app, falls).positions[24].y;
+    app.update();
+    assert!((particles(&app, falls).positions[24].y - y).abs() < 1e-4);
+}
+
+#[test]
+fn invalid_user_data_skips_the_cloth_instead_of_panicking() {
+    let mut app = app();
+    let bad_settings = app
+        .world_mut()
+        .spawn((
+            hanging(5),
+            ClothSettings {
+                substeps: 0,
+                ..default()
+            },
+        ))
+        .id();
+    let mut broken = hanging(5);
+    broken.connections.bend[0].b = 999;
+    let bad_links = app.world_mut().spawn(broken).id();
+    let mut short = hanging(5);
+    short.particles.velocities.pop();
+    let bad_arrays = app.world_mut().spawn(short).id();
+    let good = app.world_mut().spawn(hanging(5)).id();
+    let before: Vec<Vec<Vec3>> = [bad_settings, bad_links, bad_arrays]
+        .iter()
+        .map(|&e| particles(&app, e).positions.clone())
+        .collect();
+    for _ in 0..10 {
+        app.update();
+    }
+    for (e, b) in [bad_settings, bad_links, bad_arrays].iter().zip(before) {
+        assert_eq!(particles(&app, *e).positions, b, "an invalid cloth moved");
+    }
+    assert!(particles(&app, good).positions[24].y < hanging(5).particles.positions[24].y);
+}
+
+#[test]
+fn the_mesh_follows_the_particles() {
+    let mut app = App::new();
+    app.add_plugins((
+        MinimalPlugins,
+        TransformPlugin,
+        AssetPlugin::default(),
+        ClothPlugin::default(),
+    ))
+    .init_asset::<Mesh>()
+    .insert_resource(Time::<Fixed>::from_hz(60.0))
+    .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_secs_f64(
+        1.0 / 60.0,
+    )));
+    let cloth = app.world_mut().spawn(hanging(7)).id();
+    for _ in 0..20 {
+        app.update();
+    }
+    let handle = app
+        .world()
+        .get::<Mesh3d>(cloth)
+        .expect("a mesh was attached")
+        .0
+        .clone();
+    let meshes = app.world().resource::<Assets<Mesh>>();
+    let mesh = meshes.get(&handle).unwrap();
+    let Some(VertexAttributeValues::Float32x3(pos)) = mesh.attribute(Mesh::ATTRIBUTE_POSITION)
+    else {
+        panic!("no positions")
+    };
+    let p = particles(&app, cloth);
+    assert_eq!(pos.len(), 49);
+    for (m, x) in pos.iter().zip(&p.positions) {
+        assert_eq!(Vec3::from_array(*m), *x);
+    }
+    // The cloth did move, so the mesh was rewritten, not just created.
+    assert_ne!(p.positions[48], hanging(7).particles.positions[48]);
+    assert_eq!(mesh.indices().unwrap().len(), 2 * 6 * 6 * 3);
+}

@@ -1,0 +1,85 @@
+//! Scenes shared by the integration tests.
+#![allow(dead_code, reason = "each test binary uses a different subset")]
+
+use std::f32::consts::FRAC_PI_2;
+
+use bevy::math::{Quat, Vec3};
+use bevy_cloth::integrate::StepBuffers;
+use bevy_cloth::prelude::*;
+use bevy_cloth::step::{ClothStats, step_cloth};
+
+/// The seed's scene (MODEL.md §10.2, §11): an `n × n`, 1 m cotton cloth
+/// standing in the XY plane, row 0 at y = 2 m, pinned at its two top corners.
+pub fn hanging(n: u32) -> ClothBundle {
+    ClothBuilder::new(n, n)
+        .size(1.0, 1.0)
+        .mass_per_area(0.15)
+        .position(Vec3::new(0.0, 1.5, 0.0))
+        .rotation(Quat::from_rotation_x(FRAC_PI_2))
+        .pin_corner(GridCorner::TopLeft)
+        .pin_corner(GridCorner::TopRight)
+        .build()
+        .expect("valid cloth")
+}
+
+/// A horizontal `n × n`, 1 m cotton sheet at y = 2 m pinned at two corners
+/// of row 0: the rest of it falls and swings down under gravity.
+pub fn sheet(n: u32) -> ClothBundle {
+    ClothBuilder::new(n, n)
+        .position(Vec3::new(0.0, 2.0, 0.0))
+        .pin_corner(GridCorner::TopLeft)
+        .pin_corner(GridCorner::TopRight)
+        .build()
+        .expect("valid cloth")
+}
+
+/// What a run of [`simulate`] saw.
+#[derive(Debug, Clone, Copy)]
+pub struct Run {
+    /// Whether every value stayed finite.
+    pub finite: bool,
+    /// Largest Type 1 strain at any step.
+    pub peak_strain: f32,
+    /// Stats after the last step.
+    pub last: Option<(f32, f32)>,
+    /// Simulated seconds before the run stopped.
+    pub seconds: f32,
+}
+
+/// Steps `cloth` with `settings` (substeps = 1) at `dt` for `seconds`,
+/// stopping early once it is non-finite or stretched past 100%.
+pub fn simulate(cloth: &mut ClothBundle, settings: &ClothSettings, dt: f32, seconds: f32) -> Run {
+    let mut settings = settings.clone();
+    settings.substeps = 1;
+    let mut buffers = StepBuffers::new(cloth.particles.len());
+    let mut stats = ClothStats::default();
+    let mut run = Run {
+        finite: true,
+        peak_strain: 0.0,
+        last: None,
+        seconds: 0.0,
+    };
+    let steps = (seconds / dt).round() as usize;
+    for k in 0..steps {
+        step_cloth(
+            &mut cloth.particles,
+            &cloth.connections,
+            &settings,
+            &[],
+            &mut buffers,
+            dt,
+        );
+        stats.measure(&cloth.particles, &cloth.connections);
+        run.seconds = (k + 1) as f32 * dt;
+        if !stats.finite || stats.max_strain.is_nan() {
+            run.finite = false;
+            break;
+        }
+        run.peak_strain = run.peak_strain.max(stats.max_strain);
+        if stats.max_strain > 1.0 {
+            break;
+        }
+    }
+    run.last = Some((stats.max_strain, stats.kinetic_energy));
+    run
+}
