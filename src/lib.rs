@@ -186,3 +186,8 @@ mod render {
         }
     }
 }
+
+/// Compiles the README's snippet as a doctest so it stays true.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+struct ReadmeDoctests;
