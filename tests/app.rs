@@ -202,3 +202,46 @@ fn the_mesh_follows_the_particles() {
     assert_ne!(p.positions[48], hanging(7).particles.positions[48]);
     assert_eq!(mesh.indices().unwrap().len(), 2 * 6 * 6 * 3);
 }
+
+#[test]
+fn bounds_follow_the_moving_cloth_in_the_same_frame() {
+    use bevy::camera::primitives::Aabb;
+    use bevy::camera::visibility::VisibilityPlugin;
+    let mut app = App::new();
+    app.add_plugins((
+        MinimalPlugins,
+        TransformPlugin,
+        AssetPlugin::default(),
+        VisibilityPlugin,
+        ClothPlugin::default(),
+    ))
+    .init_asset::<Mesh>()
+    .init_asset::<bevy::mesh::skinning::SkinnedMeshInverseBindposes>()
+    .insert_resource(Time::<Fixed>::from_hz(60.0))
+    .insert_resource(TimeUpdateStrategy::FixedTimesteps(1));
+    let cloth = app.world_mut().spawn(hanging(9)).id();
+    let mut checked = 0;
+    for _ in 0..60 {
+        app.update();
+        let Some(aabb) = app.world().get::<Aabb>(cloth) else {
+            continue;
+        };
+        // The box Bevy culls and picks with equals the particles' bounds now.
+        let x = &particles(&app, cloth).positions;
+        let min = x.iter().fold(Vec3::MAX, |a, &b| a.min(b));
+        let max = x.iter().fold(Vec3::MIN, |a, &b| a.max(b));
+        assert!(
+            (Vec3::from(aabb.min()) - min).length() < 1e-5,
+            "{aabb:?} vs {min}..{max}"
+        );
+        assert!(
+            (Vec3::from(aabb.max()) - max).length() < 1e-5,
+            "{aabb:?} vs {min}..{max}"
+        );
+        checked += 1;
+    }
+    assert!(checked > 50, "the Aabb was checked {checked} times");
+    // The cloth swung down, so the box did move.
+    let aabb = app.world().get::<Aabb>(cloth).unwrap();
+    assert!(aabb.min().y < 1.5, "{aabb:?}");
+}
