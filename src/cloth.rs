@@ -73,6 +73,9 @@ pub enum ClothError {
     /// Substeps must be between 1 and [`MAX_SUBSTEPS`](crate::settings::MAX_SUBSTEPS).
     #[error("substeps must be between 1 and 100000, got {0}")]
     InvalidSubsteps(u32),
+    /// A collider's shape or material is invalid, or its mesh unusable.
+    #[error("invalid collider: {0}")]
+    InvalidCollider(&'static str),
     /// Gravity (m/s²) must be finite.
     #[error("gravity must be finite, got {0}")]
     InvalidGravity(Vec3),
@@ -126,19 +129,30 @@ impl Cloth {
         )
     }
 
-    /// Triangle indices: each grid quad split into two counter-clockwise
-    /// triangles, `2(cols−1)(rows−1)` in all.
+    /// Number of triangles, `2(cols−1)(rows−1)`.
+    pub fn triangle_count(&self) -> usize {
+        2 * ((self.cols - 1) * (self.rows - 1)) as usize
+    }
+
+    /// Triangle `t`: quad `q = t/2` (row-major) split into `(a, d, c)` and
+    /// `(a, c, b)` with `a = (i, j)`, `b = (i+1, j)`, `c = (i+1, j+1)`,
+    /// `d = (i, j+1)`; counter-clockwise about `+v × +u`.
+    pub fn triangle(&self, t: u32) -> [u32; 3] {
+        let q = t / 2;
+        let (i, j) = (q % (self.cols - 1), q / (self.cols - 1));
+        let (a, b) = (self.index(i, j), self.index(i + 1, j));
+        let (c, d) = (self.index(i + 1, j + 1), self.index(i, j + 1));
+        if t.is_multiple_of(2) { [a, d, c] } else { [a, c, b] }
+    }
+
+    /// Every triangle, without allocating.
+    pub fn triangle_iter(&self) -> impl Iterator<Item = [u32; 3]> + '_ {
+        (0..self.triangle_count() as u32).map(|t| self.triangle(t))
+    }
+
+    /// Every triangle as a vector (see [`triangle`](Self::triangle)).
     pub fn triangles(&self) -> Vec<[u32; 3]> {
-        let mut out = Vec::with_capacity(2 * ((self.cols - 1) * (self.rows - 1)) as usize);
-        for j in 0..self.rows - 1 {
-            for i in 0..self.cols - 1 {
-                let (a, b) = (self.index(i, j), self.index(i + 1, j));
-                let (c, d) = (self.index(i + 1, j + 1), self.index(i, j + 1));
-                out.push([a, d, c]);
-                out.push([a, c, b]);
-            }
-        }
-        out
+        self.triangle_iter().collect()
     }
 }
 

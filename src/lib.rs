@@ -59,6 +59,7 @@
 
 pub mod anchor;
 pub mod cloth;
+pub mod collision;
 pub mod connections;
 pub mod integrate;
 pub mod mesh;
@@ -85,6 +86,7 @@ pub use crate::systems::check_cloth;
 
 /// The things most users need: `use bevy_cloth::prelude::*;`.
 pub mod prelude {
+    pub use crate::collision::{ClothCollider, ClothCollision, ClothSelfCollision};
     pub use crate::{
         ClothAnchors, ClothBuilder, ClothBundle, ClothConnections, ClothDefaults, ClothError,
         ClothForces, ClothModel, ClothParticles, ClothPlugin, ClothSettings, ClothStats,
@@ -140,6 +142,7 @@ impl Plugin for ClothPlugin {
                 ),
             );
         mesh::configure(app);
+        collision::configure(app);
         #[cfg(feature = "render")]
         if self.default_material {
             app.add_systems(

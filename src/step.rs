@@ -39,6 +39,8 @@ impl ClothForces {
 pub struct ClothScratch {
     /// Stage buffers of the integrators.
     pub buffers: StepBuffers,
+    /// Indices of the scene colliders near this cloth in the current step.
+    pub(crate) near: Vec<usize>,
     /// Whether the cloth was skipped for invalid settings, so the warning is
     /// logged once.
     pub(crate) warned_invalid: bool,
@@ -68,6 +70,23 @@ impl ClothStats {
     }
 }
 
+/// One substep, as a contact hook sees it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Substep {
+    /// Start of the substep as a fraction of the fixed step, in [0, 1).
+    pub from: f32,
+    /// End of the substep as a fraction of the fixed step, in (0, 1].
+    pub to: f32,
+    /// Length of the substep in s.
+    pub dt: f32,
+}
+
+/// What a contact hook gets after each substep: the substep, positions at
+/// its start (m), and the particles' positions (m), velocities (m/s) and
+/// inverse masses (1/kg) at its end, which it may correct.
+pub trait ContactHook: FnMut(Substep, &[Vec3], &mut [Vec3], &mut [Vec3], &[f32]) {}
+impl<F: FnMut(Substep, &[Vec3], &mut [Vec3], &mut [Vec3], &[f32])> ContactHook for F {}
+
 /// Advances one cloth by `dt` seconds in `settings.substeps` equal substeps.
 ///
 /// `external` holds one force per particle in N, or is empty. `buffers` are
@@ -81,8 +100,36 @@ pub fn step_cloth(
     buffers: &mut StepBuffers,
     dt: f32,
 ) {
-    buffers.resize(particles.len());
-    let h = dt / settings.substeps.max(1) as f32;
+    step_cloth_with(
+        particles,
+        connections,
+        settings,
+        external,
+        buffers,
+        dt,
+        None::<fn(_, &_, &mut _, &mut _, &_)>,
+    );
+}
+
+/// [`step_cloth`] with a contact hook called after every substep, so that
+/// contacts are resolved at the time scale of the stiff springs rather than
+/// once per fixed step (which lets the cloth gain energy against a collider).
+pub fn step_cloth_with(
+    particles: &mut ClothParticles,
+    connections: &ClothConnections,
+    settings: &ClothSettings,
+    external: &[Vec3],
+    buffers: &mut StepBuffers,
+    dt: f32,
+    mut contacts: Option<impl ContactHook>,
+) {
+    let n = particles.len();
+    buffers.resize(n);
+    if contacts.is_some() {
+        buffers.substep_start.resize(n, Vec3::ZERO);
+    }
+    let substeps = settings.substeps.max(1);
+    let h = dt / substeps as f32;
     let ClothParticles {
         positions,
         velocities,
@@ -95,7 +142,10 @@ pub fn step_cloth(
         inverse_masses,
         external,
     };
-    for _ in 0..settings.substeps {
+    for k in 0..substeps {
+        if contacts.is_some() {
+            buffers.substep_start.copy_from_slice(positions);
+        }
         integrate::step(
             settings.integrator,
             positions,
@@ -104,5 +154,19 @@ pub fn step_cloth(
             buffers,
             |x, v, a| dynamics.accelerations(x, v, a),
         );
+        if let Some(hook) = contacts.as_mut() {
+            let sub = Substep {
+                from: k as f32 / substeps as f32,
+                to: (k + 1) as f32 / substeps as f32,
+                dt: h,
+            };
+            hook(
+                sub,
+                &buffers.substep_start,
+                positions,
+                velocities,
+                inverse_masses,
+            );
+        }
     }
 }

@@ -3,14 +3,23 @@
 
 use bevy::log::warn;
 use bevy::math::Vec3;
-use bevy::prelude::{Entity, Query, Res, Time};
+use bevy::prelude::{Entity, Query, Res, ResMut, Time};
 use bevy::time::Fixed;
 
 use crate::cloth::ClothError;
 use crate::connections::ClothConnections;
 use crate::particles::ClothParticles;
 use crate::settings::{ClothDefaults, ClothSettings};
-use crate::step::{ClothForces, ClothScratch, ClothStats, step_cloth};
+use std::sync::atomic::{AtomicU64, Ordering};
+
+use bevy::ecs::query::QueryData;
+
+use crate::cloth::Cloth;
+use crate::collision::{
+    ClothCollision, ClothCollisionStats, ClothSelfCollision, ColliderScene, SelfCollisionScratch,
+    bounds, resolve_substep,
+};
+use crate::step::{ClothForces, ClothScratch, ClothStats, Substep, step_cloth_with};
 
 /// Checks what the step indexes so that user edits can never make it panic:
 /// equal array lengths, and every link inside the particle range.
@@ -34,52 +43,113 @@ pub fn check_cloth(
     }
 }
 
+/// What the step reads and writes of one cloth.
+#[derive(QueryData)]
+#[query_data(mutable)]
+pub(crate) struct StepQuery {
+    entity: Entity,
+    cloth: &'static Cloth,
+    particles: &'static mut ClothParticles,
+    connections: &'static ClothConnections,
+    settings: Option<&'static ClothSettings>,
+    forces: &'static ClothForces,
+    scratch: &'static mut ClothScratch,
+    collision: Option<&'static ClothCollision>,
+    self_collision: Option<(
+        &'static ClothSelfCollision,
+        &'static mut SelfCollisionScratch,
+    )>,
+}
+
 /// [`ClothSystems::Integrate`](crate::schedule::ClothSystems::Integrate):
-/// steps every cloth over the fixed timestep (never the frame delta).
+/// steps every cloth over the fixed timestep (never the frame delta),
+/// resolving contacts with nearby colliders and with itself after every
+/// substep when there are any.
 ///
 /// A cloth whose settings or arrays are invalid is skipped, with one warning
 /// until it is fixed.
-#[expect(
-    clippy::type_complexity,
-    reason = "one query gathers what the step reads"
-)]
 pub(crate) fn step_cloths(
     time: Res<Time<Fixed>>,
     defaults: Res<ClothDefaults>,
-    mut cloths: Query<(
-        Entity,
-        &mut ClothParticles,
-        &ClothConnections,
-        Option<&ClothSettings>,
-        &ClothForces,
-        &mut ClothScratch,
-    )>,
+    scene: Res<ColliderScene>,
+    mut stats: ResMut<ClothCollisionStats>,
+    mut cloths: Query<StepQuery>,
 ) {
     let dt = time.timestep().as_secs_f32();
-    cloths.par_iter_mut().for_each(
-        |(entity, mut particles, connections, own, forces, mut scratch)| {
-            let settings = own.unwrap_or(&defaults);
-            let checked = settings
-                .validate()
-                .and_then(|()| check_cloth(&particles, connections));
-            if let Err(error) = checked {
-                if !scratch.warned_invalid {
-                    warn!("cloth {entity} is not simulated: {error}");
-                    scratch.warned_invalid = true;
-                }
-                return;
+    let totals: [AtomicU64; 4] = Default::default();
+    cloths.par_iter_mut().for_each(|mut item| {
+        let settings = item.settings.unwrap_or(&defaults);
+        let checked = settings
+            .validate()
+            .and_then(|()| check_cloth(&item.particles, item.connections));
+        if let Err(error) = checked {
+            if !item.scratch.warned_invalid {
+                warn!("cloth {} is not simulated: {error}", item.entity);
+                item.scratch.warned_invalid = true;
             }
-            scratch.warned_invalid = false;
-            step_cloth(
-                &mut particles,
-                connections,
-                settings,
-                &forces.0,
-                &mut scratch.buffers,
-                dt,
-            );
-        },
-    );
+            return;
+        }
+        item.scratch.warned_invalid = false;
+        let scratch = &mut *item.scratch;
+        // Colliders the cloth may reach this step: its box grown by the
+        // thickness and twice the distance its fastest particle or gravity
+        // could carry it.
+        let thickness = item
+            .collision
+            .map_or(ClothCollision::default().thickness, |c| c.thickness);
+        scratch.near.clear();
+        if !scene.colliders.is_empty() && thickness.is_finite() && thickness >= 0.0 {
+            let speed = item
+                .particles
+                .velocities
+                .iter()
+                .map(|v| v.length())
+                .fold(0.0, f32::max);
+            let reach = thickness + 2.0 * speed * dt + settings.gravity.length() * dt * dt + 0.01;
+            let (lo, hi) = bounds(&item.particles.positions, reach);
+            scratch.near.extend(scene.overlapping(lo, hi));
+        }
+        let mut self_collision = item
+            .self_collision
+            .as_mut()
+            .filter(|(s, _)| s.thickness.is_finite() && s.thickness > 0.0)
+            .map(|(s, buffers)| (item.cloth, s.thickness, &mut buffers.0));
+        let near = &scratch.near;
+        let hook = (!near.is_empty() || self_collision.is_some()).then_some(
+            |sub: Substep, start: &[Vec3], x: &mut [Vec3], v: &mut [Vec3], w: &[f32]| {
+                let own = self_collision.as_mut().map(|(c, t, b)| (*c, *t, &mut **b));
+                let (against, itself) =
+                    resolve_substep(&scene, near, thickness, own, sub, start, x, v, w);
+                for (total, n) in totals.iter().zip([
+                    against.tests,
+                    against.contacts,
+                    itself.tests,
+                    itself.contacts,
+                ]) {
+                    total.fetch_add(n as u64, Ordering::Relaxed);
+                }
+            },
+        );
+        step_cloth_with(
+            &mut item.particles,
+            item.connections,
+            settings,
+            &item.forces.0,
+            &mut scratch.buffers,
+            dt,
+            hook,
+        );
+    });
+    let [ct, cc, st, sc] = totals.map(AtomicU64::into_inner);
+    if ct + st > 0 {
+        stats.collider_tests += ct;
+        stats.collider_contacts += cc;
+        stats.self_tests += st;
+        stats.self_contacts += sc;
+    }
+    if cloths.iter().any(|c| c.self_collision.is_some()) {
+        stats.self_passes += 1;
+    }
 }
 
 /// [`ClothSystems::Writeback`](crate::schedule::ClothSystems::Writeback):

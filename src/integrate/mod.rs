@@ -40,6 +40,9 @@ pub struct StepBuffers {
     pub sum_x: Vec<Vec3>,
     /// Weighted sum of the velocity slopes (RK4), m/s².
     pub sum_v: Vec<Vec3>,
+    /// Positions at the start of the substep (m), kept only when contacts
+    /// are resolved (see [`step_cloth_with`](crate::step::step_cloth_with)).
+    pub substep_start: Vec<Vec3>,
 }
 
 impl StepBuffers {

@@ -36,6 +36,7 @@ pub fn rk4(
         stage_v,
         sum_x,
         sum_v,
+        ..
     } = buffers;
     let half = 0.5 * dt;
 
