@@ -1,14 +1,13 @@
 //! [`ClothAnchors`]: pinned particles carried by other entities.
 
 use bevy::math::Vec3;
-use bevy::prelude::{
-    Component, Entity, GlobalTransform, Query, Reflect, ReflectComponent, Res, Time,
-};
+use bevy::prelude::{Component, Entity, On, Query, Reflect, ReflectComponent, Remove, Res, Time};
 use bevy::time::Fixed;
 
 use crate::particles::ClothParticles;
+use crate::pose::WorldPose;
 
-/// One particle tied to an entity's [`GlobalTransform`].
+/// One particle tied to another entity's transform.
 #[derive(Clone, Copy, Debug, PartialEq, Reflect)]
 pub struct Anchor {
     /// The carried particle's index.
@@ -25,15 +24,21 @@ pub struct Anchor {
 }
 
 /// Particles of this cloth that follow other entities. Each anchored
-/// particle is pinned (inverse mass 0) and given, for the duration of every
-/// fixed step, the velocity that brings it to its target point by the step's
-/// end; it is then placed exactly on that point and its velocity reset to 0.
-/// The cloth feels the anchor's motion through its connections.
+/// particle is pinned (inverse mass 0) and given, every fixed step, the
+/// velocity (m/s) that brings it to its target point by the step's end,
+/// where it is then placed exactly. The cloth feels the anchor's motion
+/// through its connections; unpin a particle while its anchor moves and it
+/// flies off with the anchor's velocity (a yank).
 ///
-/// Anchors read `GlobalTransform`, which Bevy propagates in `PostUpdate`: a
-/// `Transform` written in `Update` reaches the cloth one frame later.
+/// A particle stops (velocity 0, still pinned) when its target disappears,
+/// when it is [`detach`](Self::detach)ed, or when the component is removed
+/// while the particle is still pinned.
 ///
-/// An anchor whose target has no `GlobalTransform` (or was despawned) is
+/// Targets are read as [`pose`](crate::pose) explains: a root entity's own
+/// `Transform` (current even when moved in `FixedUpdate`), a child's
+/// `GlobalTransform`.
+///
+/// An anchor whose target has no transform (or was despawned) is
 /// skipped: its particle stays pinned where it is.
 ///
 /// ```
@@ -46,7 +51,7 @@ pub struct Anchor {
 /// ```
 #[derive(Component, Clone, Debug, Default, PartialEq, Reflect)]
 #[reflect(Component)]
-pub struct ClothAnchors(pub Vec<Anchor>);
+pub struct ClothAnchors(pub Vec<Anchor>, #[reflect(ignore)] Vec<u32>);
 
 impl ClothAnchors {
     /// Adds particle `particle` carried by `target`, keeping its current
@@ -74,10 +79,20 @@ impl ClothAnchors {
         });
     }
 
-    /// Removes the anchor of `particle` (the particle stays pinned; unpin it
-    /// with [`ClothParticles::unpin`] to let it fall).
+    /// Removes the anchor of `particle`. At the next step the particle is
+    /// stopped if still pinned; unpin it with [`ClothParticles::unpin`] to
+    /// let it fall (or fly on with the anchor's last velocity).
     pub fn detach(&mut self, particle: u32) {
+        let before = self.0.len();
         self.0.retain(|a| a.particle != particle);
+        if self.0.len() != before {
+            self.1.push(particle);
+        }
+    }
+
+    /// The anchors.
+    pub fn anchors(&self) -> &[Anchor] {
+        &self.0
     }
 }
 
@@ -86,34 +101,36 @@ impl ClothAnchors {
 /// point at the end of the fixed step.
 pub(crate) fn follow_anchors(
     time: Res<Time<Fixed>>,
-    targets: Query<&GlobalTransform>,
+    targets: Query<WorldPose>,
     mut cloths: Query<(&mut ClothAnchors, &mut ClothParticles)>,
 ) {
     let dt = time.timestep().as_secs_f32();
     for (mut anchors, mut particles) in &mut cloths {
-        for anchor in &mut anchors.0 {
+        let ClothAnchors(anchors, detached) = &mut *anchors;
+        for p in detached.drain(..) {
+            stop_if_pinned(&mut particles, p);
+        }
+        for anchor in anchors.iter_mut() {
             anchor.goal = None;
             let p = anchor.particle as usize;
-            let Ok(target) = targets.get(anchor.target) else {
-                continue;
-            };
             if p >= particles.len() {
                 continue;
             }
+            let Some(target) = targets.get(anchor.target).ok().and_then(|t| t.affine()) else {
+                stop_if_pinned(&mut particles, anchor.particle);
+                continue;
+            };
             let offset = match anchor.offset {
                 Some(offset) => offset,
                 None => {
-                    let local = target
-                        .affine()
-                        .inverse()
-                        .transform_point3(particles.positions[p]);
+                    let local = target.inverse().transform_point3(particles.positions[p]);
                     if !local.is_finite() {
                         continue;
                     }
                     *anchor.offset.insert(local)
                 }
             };
-            let goal = target.transform_point(offset);
+            let goal = target.transform_point3(offset);
             if !goal.is_finite() {
                 continue;
             }
@@ -125,19 +142,36 @@ pub(crate) fn follow_anchors(
 }
 
 /// [`ClothSystems::Writeback`](crate::schedule::ClothSystems::Writeback):
-/// places anchored particles exactly on their targets, at rest until the
-/// next step sets their velocity again (so a detached or orphaned pin stays
-/// put instead of drifting).
+/// places anchored particles exactly on their targets (they keep the
+/// anchor's velocity).
 pub(crate) fn snap_anchors(mut cloths: Query<(&ClothAnchors, &mut ClothParticles)>) {
     for (anchors, mut particles) in &mut cloths {
         for anchor in &anchors.0 {
-            let p = anchor.particle as usize;
-            if let Some(goal) = anchor.goal
-                && p < particles.len()
-            {
-                particles.positions[p] = goal;
-                particles.velocities[p] = Vec3::ZERO;
+            if let (Some(goal), Some(x)) = (
+                anchor.goal,
+                particles.positions.get_mut(anchor.particle as usize),
+            ) {
+                *x = goal;
             }
+        }
+    }
+}
+
+/// Stops particle `p` if it is pinned (a pin left without its anchor).
+fn stop_if_pinned(particles: &mut ClothParticles, p: u32) {
+    if particles.is_pinned(p as usize) {
+        particles.velocities[p as usize] = Vec3::ZERO;
+    }
+}
+
+/// When `ClothAnchors` is removed, its still-pinned particles stop.
+pub(crate) fn stop_on_remove(
+    trigger: On<Remove, ClothAnchors>,
+    mut cloths: Query<(&ClothAnchors, &mut ClothParticles)>,
+) {
+    if let Ok((anchors, mut particles)) = cloths.get_mut(trigger.entity) {
+        for anchor in &anchors.0 {
+            stop_if_pinned(&mut particles, anchor.particle);
         }
     }
 }

@@ -142,7 +142,11 @@ impl Cloth {
         let (i, j) = (q % (self.cols - 1), q / (self.cols - 1));
         let (a, b) = (self.index(i, j), self.index(i + 1, j));
         let (c, d) = (self.index(i + 1, j + 1), self.index(i, j + 1));
-        if t.is_multiple_of(2) { [a, d, c] } else { [a, c, b] }
+        if t.is_multiple_of(2) {
+            [a, d, c]
+        } else {
+            [a, c, b]
+        }
     }
 
     /// Every triangle, without allocating.

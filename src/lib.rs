@@ -65,6 +65,7 @@ pub mod integrate;
 pub mod mesh;
 pub mod model;
 pub mod particles;
+pub mod pose;
 pub mod schedule;
 pub mod settings;
 pub mod step;
@@ -141,6 +142,7 @@ impl Plugin for ClothPlugin {
                         .in_set(Writeback),
                 ),
             );
+        app.add_observer(anchor::stop_on_remove);
         mesh::configure(app);
         collision::configure(app);
         #[cfg(feature = "render")]

@@ -2,7 +2,9 @@
 //! the automated mode used by the rendering check:
 //!
 //! `--frames N` runs N frames and exits; `--screenshot PATH` saves the last
-//! frame to PATH (through Bevy's `Screenshot`) before exiting.
+//! frame to PATH (through Bevy's `Screenshot`) before exiting; `--press K:F`
+//! (repeatable) presses key K (a letter, a digit or `Space`) at frame F, so
+//! a scripted interaction can be checked.
 #![allow(dead_code, reason = "each example uses a different subset")]
 
 use std::path::PathBuf;
@@ -33,6 +35,8 @@ pub struct Automation {
     pub frames: Option<u32>,
     /// Where to save the screenshot.
     pub screenshot: Option<PathBuf>,
+    /// Keys to press, with the frame to press them at.
+    pub presses: Vec<(KeyCode, u32)>,
     /// Frames rendered so far.
     pub frame: u32,
     requested: bool,
@@ -47,6 +51,11 @@ impl Automation {
             match arg.as_str() {
                 "--frames" => out.frames = args.next().and_then(|n| n.parse().ok()),
                 "--screenshot" => out.screenshot = args.next().map(PathBuf::from),
+                "--press" => {
+                    if let Some(press) = args.next().as_deref().and_then(parse_press) {
+                        out.presses.push(press);
+                    }
+                }
                 _ => {}
             }
         }
@@ -60,6 +69,64 @@ impl Automation {
     pub fn active(&self) -> bool {
         self.frames.is_some()
     }
+}
+
+/// `K:F` → (key K, frame F).
+fn parse_press(s: &str) -> Option<(KeyCode, u32)> {
+    let (key, frame) = s.split_once(':')?;
+    let code = match key {
+        "Space" => KeyCode::Space,
+        k if k.len() == 1 => {
+            let c = k.chars().next()?.to_ascii_uppercase();
+            const LETTERS: [KeyCode; 26] = [
+                KeyCode::KeyA,
+                KeyCode::KeyB,
+                KeyCode::KeyC,
+                KeyCode::KeyD,
+                KeyCode::KeyE,
+                KeyCode::KeyF,
+                KeyCode::KeyG,
+                KeyCode::KeyH,
+                KeyCode::KeyI,
+                KeyCode::KeyJ,
+                KeyCode::KeyK,
+                KeyCode::KeyL,
+                KeyCode::KeyM,
+                KeyCode::KeyN,
+                KeyCode::KeyO,
+                KeyCode::KeyP,
+                KeyCode::KeyQ,
+                KeyCode::KeyR,
+                KeyCode::KeyS,
+                KeyCode::KeyT,
+                KeyCode::KeyU,
+                KeyCode::KeyV,
+                KeyCode::KeyW,
+                KeyCode::KeyX,
+                KeyCode::KeyY,
+                KeyCode::KeyZ,
+            ];
+            const DIGITS: [KeyCode; 10] = [
+                KeyCode::Digit0,
+                KeyCode::Digit1,
+                KeyCode::Digit2,
+                KeyCode::Digit3,
+                KeyCode::Digit4,
+                KeyCode::Digit5,
+                KeyCode::Digit6,
+                KeyCode::Digit7,
+                KeyCode::Digit8,
+                KeyCode::Digit9,
+            ];
+            match c {
+                'A'..='Z' => LETTERS[(c as u8 - b'A') as usize],
+                '0'..='9' => DIGITS[(c as u8 - b'0') as usize],
+                _ => return None,
+            }
+        }
+        _ => return None,
+    };
+    Some((code, frame.parse().ok()?))
 }
 
 impl Plugin for ExamplePlugin {
@@ -81,6 +148,7 @@ impl Plugin for ExamplePlugin {
         .insert_resource(Automation::from_args())
         .add_systems(EguiPrimaryContextPass, help_overlay)
         .add_systems(Update, automate)
+        .add_systems(PreUpdate, scripted_keys.after(bevy::input::InputSystems))
         .add_systems(
             PreUpdate,
             block_camera_under_egui.before(PanOrbitCameraSystemSet),
@@ -163,6 +231,17 @@ fn block_camera_under_egui(wants: Res<EguiWantsInput>, mut cameras: Query<&mut P
     for mut camera in &mut cameras {
         if camera.enabled != free {
             camera.enabled = free;
+        }
+    }
+}
+
+/// Presses the `--press` keys at their frames (held for one frame).
+fn scripted_keys(auto: Res<Automation>, mut keys: ResMut<ButtonInput<KeyCode>>) {
+    for &(key, frame) in &auto.presses {
+        if auto.frame == frame {
+            keys.press(key);
+        } else if auto.frame == frame + 1 {
+            keys.release(key);
         }
     }
 }

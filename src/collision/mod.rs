@@ -1,10 +1,11 @@
 //! Collision of cloth with objects and with itself (MODEL.md §8).
 //!
-//! - [`ClothCollider`] on any entity with a `GlobalTransform`: sphere,
-//!   plane, cuboid, capsule, cylinder, or a triangle mesh built from a Bevy
-//!   `Mesh`, each with friction and restitution. Its pose comes from the
-//!   entity's rotation and translation (scale is ignored: size the shape
-//!   itself). Its motion over each fixed step enters the response.
+//! - [`ClothCollider`] on any entity with a `Transform`: sphere, plane,
+//!   cuboid, capsule, cylinder, or a triangle mesh built from a Bevy `Mesh`,
+//!   each with friction and restitution. Its pose comes from the entity's
+//!   rotation and translation (scale is ignored: size the shape itself), read
+//!   as [`pose`](crate::pose) explains, so a collider moved in `FixedUpdate`
+//!   is seen at once. Its motion over each fixed step enters the response.
 //! - [`ClothCollision`] on a cloth sets its thickness (default 5 mm).
 //! - [`ClothSelfCollision`] opts a cloth into self-collision.
 //!
@@ -44,6 +45,7 @@ use bevy::time::Fixed;
 
 use crate::cloth::{Cloth, ClothError};
 use crate::particles::ClothParticles;
+use crate::pose::WorldPose;
 use crate::schedule::ClothSystems;
 pub use contact::Counts;
 use contact::{Geometry, MovingCollider, collide_particles, seed_triangle_pass};
@@ -67,7 +69,7 @@ pub enum ColliderShape {
     Mesh(MeshShape),
 }
 
-/// An object the cloth collides with, on any entity with a `GlobalTransform`.
+/// An object the cloth collides with, on any entity with a `Transform`.
 ///
 /// ```
 /// # use bevy::prelude::*;
@@ -362,41 +364,23 @@ pub(crate) fn configure(app: &mut App) {
         );
 }
 
-fn isometry(transform: &GlobalTransform) -> Isometry3d {
-    let (_, rotation, translation) = transform.to_scale_rotation_translation();
-    Isometry3d::new(translation, rotation)
-}
-
 /// [`ClothSystems::Prepare`](crate::ClothSystems::Prepare): every valid
 /// collider's poses over the coming step; its end pose is its next start.
 fn gather_colliders(
-    mut colliders: Query<(
-        &ClothCollider,
-        &GlobalTransform,
-        Option<&Transform>,
-        &mut ColliderMotion,
-    )>,
+    mut colliders: Query<(&ClothCollider, WorldPose, &mut ColliderMotion)>,
     mut scene: ResMut<ColliderScene>,
     mut stats: ResMut<ClothCollisionStats>,
 ) {
     stats.collider_passes += 1;
     scene.colliders.clear();
-    for (collider, global, local, mut motion) in &mut colliders {
-        // A collider spawned since the last `PostUpdate` still has the
-        // default `GlobalTransform`: taking it would make the collider jump
-        // from the origin to its place in one step and kick the cloth.
-        if *global == GlobalTransform::IDENTITY && local.is_some_and(|t| *t != Transform::IDENTITY)
-        {
-            continue;
-        }
+    for (collider, pose, mut motion) in &mut colliders {
         if let Err(error) = collider.validate() {
             warn_once!("a cloth collider is ignored: {error}");
             continue;
         }
-        let end = isometry(global);
-        if !(end.translation.is_finite() && end.rotation.is_finite()) {
+        let Some(end) = pose.isometry() else {
             continue;
-        }
+        };
         let start = motion.previous.replace(end).unwrap_or(end);
         let (centre, radius) = collider.bounding_ball();
         let (c0, c1) = (
