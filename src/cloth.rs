@@ -76,6 +76,9 @@ pub enum ClothError {
     /// A collider's shape or material is invalid, or its mesh unusable.
     #[error("invalid collider: {0}")]
     InvalidCollider(&'static str),
+    /// The implicit solve needs a tolerance in (0, 1) and at least one iteration.
+    #[error("the implicit solver needs a tolerance in (0, 1) and at least one iteration")]
+    InvalidSolver,
     /// Gravity (m/s²) must be finite.
     #[error("gravity must be finite, got {0}")]
     InvalidGravity(Vec3),

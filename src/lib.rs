@@ -57,10 +57,12 @@
 
 #![warn(missing_docs)]
 
+pub mod accuracy;
 pub mod anchor;
 pub mod cloth;
 pub mod collision;
 pub mod connections;
+pub mod diagnostics;
 pub mod integrate;
 pub mod mesh;
 pub mod model;
@@ -80,7 +82,8 @@ pub use crate::connections::{ClothConnections, Link};
 pub use crate::particles::ClothParticles;
 pub use crate::schedule::ClothSystems;
 pub use crate::settings::{
-    ChoiKoParams, ClothDefaults, ClothModel, ClothSettings, Integrator, LanderParams, SpringParams,
+    ChoiKoParams, ClothDefaults, ClothModel, ClothSettings, ImplicitParams, Integrator,
+    LanderParams, SlackStiffness, SpringParams, Type2Jacobian,
 };
 pub use crate::step::{ClothForces, ClothStats};
 pub use crate::systems::check_cloth;
@@ -145,6 +148,7 @@ impl Plugin for ClothPlugin {
         app.add_observer(anchor::stop_on_remove);
         mesh::configure(app);
         collision::configure(app);
+        diagnostics::configure(app);
         #[cfg(feature = "render")]
         if self.default_material {
             app.add_systems(

@@ -10,6 +10,7 @@ use crate::cloth::ClothError;
 use crate::connections::ClothConnections;
 use crate::particles::ClothParticles;
 use crate::settings::{ClothDefaults, ClothSettings};
+use bevy::platform::time::Instant;
 use std::sync::atomic::{AtomicU64, Ordering};
 
 use bevy::ecs::query::QueryData;
@@ -54,6 +55,7 @@ pub(crate) struct StepQuery {
     settings: Option<&'static ClothSettings>,
     forces: &'static ClothForces,
     scratch: &'static mut ClothScratch,
+    stats: &'static mut ClothStats,
     collision: Option<&'static ClothCollision>,
     self_collision: Option<(
         &'static ClothSelfCollision,
@@ -130,6 +132,7 @@ pub(crate) fn step_cloths(
                 }
             },
         );
+        let started = Instant::now();
         step_cloth_with(
             &mut item.particles,
             item.connections,
@@ -139,6 +142,12 @@ pub(crate) fn step_cloths(
             dt,
             hook,
         );
+        item.stats.step_micros = started.elapsed().as_secs_f32() * 1e6;
+        item.stats.solver_iterations = if settings.integrator.is_implicit() {
+            scratch.buffers.implicit.last_iterations
+        } else {
+            0
+        };
     });
     let [ct, cc, st, sc] = totals.map(AtomicU64::into_inner);
     if ct + st > 0 {

@@ -243,3 +243,31 @@ fn bounds_follow_the_moving_cloth_in_the_same_frame() {
     let aabb = app.world().get::<Aabb>(cloth).unwrap();
     assert!(aabb.min().y < 1.5, "{aabb:?}");
 }
+
+#[test]
+fn live_figures_are_bevy_diagnostics() {
+    use bevy::diagnostic::DiagnosticsStore;
+    use bevy_cloth::diagnostics::{
+        KINETIC_ENERGY, MAX_STRAIN, STEP_TIME, SUBSTEPS, step_time_path,
+    };
+    let mut app = app();
+    app.world_mut().spawn(hanging(9));
+    for _ in 0..10 {
+        app.update();
+    }
+    let store = app.world().resource::<DiagnosticsStore>();
+    let value = |path: &bevy::diagnostic::DiagnosticPath| {
+        store.get(path).and_then(|d| d.value()).unwrap_or(f64::NAN)
+    };
+    assert!(value(&STEP_TIME) > 0.0);
+    assert!(value(step_time_path(Integrator::SymplecticEuler)) > 0.0);
+    assert!(
+        store
+            .get(step_time_path(Integrator::Rk4))
+            .unwrap()
+            .value()
+            .is_none()
+    );
+    assert_eq!(value(&SUBSTEPS), 40.0);
+    assert!(value(&MAX_STRAIN) > 0.0 && value(&KINETIC_ENERGY) > 0.0);
+}

@@ -68,3 +68,32 @@ fn lander_cloth_hangs_stably_under_symplectic_euler() {
     eprintln!("Lander, symplectic Euler {run:?}");
     assert!(run.finite && run.peak_strain <= 0.05, "{run:?}");
 }
+
+/// The implicit integrators on the same cloth at the steps a game uses.
+#[test]
+fn implicit_integrators_are_stable_at_game_steps() {
+    for integrator in [Integrator::BackwardEuler, Integrator::Bdf2] {
+        for dt in [1.0 / 60.0, 1.0 / 30.0] {
+            let mut cloth = hanging(15);
+            let run = simulate(&mut cloth, &cotton(integrator), dt, 10.0);
+            eprintln!("{integrator:?} at {dt:.4} s: {run:?}");
+            assert!(run.finite, "{integrator:?} at {dt}: {run:?}");
+            assert!((run.seconds - 10.0).abs() < 0.05, "{run:?}");
+            assert!(run.peak_strain <= 0.10, "{integrator:?} at {dt}: {run:?}");
+        }
+    }
+}
+
+/// ... where every explicit integrator blows up: the test can fail.
+#[test]
+fn explicit_integrators_blow_up_at_a_thirtieth_of_a_second() {
+    for integrator in Integrator::EXPLICIT {
+        let mut cloth = hanging(15);
+        let run = simulate(&mut cloth, &cotton(integrator), 1.0 / 30.0, 10.0);
+        eprintln!("{integrator:?} at 1/30 s: {run:?}");
+        assert!(
+            !run.finite || run.peak_strain > 1.0,
+            "{integrator:?}: {run:?}"
+        );
+    }
+}

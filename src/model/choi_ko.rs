@@ -143,16 +143,18 @@ pub fn type1_forces(links: &[Link], k: f32, kd: f32, x: &[Vec3], v: &[Vec3], f: 
     for l in links {
         let (a, b) = (l.a as usize, l.b as usize);
         let d = x[b] - x[a];
-        let len = d.length();
-        if len < l.rest_length || len < MIN_LENGTH {
+        // Slack links (most of a hanging cloth's) leave before the sqrt.
+        let len2 = d.length_squared();
+        if len2 < l.rest_length * l.rest_length || len2 < MIN_LENGTH * MIN_LENGTH {
             continue;
         }
-        let u = d / len;
+        let len = len2.sqrt();
+        let inv = 1.0 / len;
         let mut mag = k * (len - l.rest_length);
         if kd != 0.0 {
-            mag += kd * (v[b] - v[a]).dot(u);
+            mag += kd * (v[b] - v[a]).dot(d) * inv;
         }
-        let force = mag * u;
+        let force = d * (mag * inv);
         f[a] += force;
         f[b] -= force;
     }
@@ -171,10 +173,12 @@ pub fn type2_forces(
     for l in links {
         let (a, b) = (l.a as usize, l.b as usize);
         let d = x[b] - x[a];
-        let len = d.length();
-        if len >= l.rest_length || len < MIN_LENGTH {
+        // Links at or beyond rest length (most of them) leave before the sqrt.
+        let len2 = d.length_squared();
+        if len2 >= l.rest_length * l.rest_length || len2 < MIN_LENGTH * MIN_LENGTH {
             continue;
         }
+        let len = len2.sqrt();
         let (mag, _) = type2_magnitude(table, len, l.rest_length, kb, cb);
         let force = (mag / len) * d;
         f[a] += force;

@@ -6,6 +6,7 @@
 //!   pinned particles (inverse mass 0) held at zero acceleration.
 
 pub mod choi_ko;
+pub mod jacobian;
 pub mod lander;
 
 use bevy::math::Vec3;

@@ -1,0 +1,152 @@
+//! `cargo bench --bench step`: force evaluation and one step per integrator
+//! at 15×15, 64×64 and 128×128 (cotton, MODEL.md §11), and a whole 1/60 s
+//! game frame of a 64×64 cloth with a sphere collider and mesh sync.
+
+use std::hint::black_box;
+use std::time::Duration;
+
+use bevy::asset::AssetPlugin;
+use bevy::mesh::Mesh;
+use bevy::prelude::*;
+use bevy::time::TimeUpdateStrategy;
+use bevy::transform::TransformPlugin;
+use bevy_cloth::accuracy::scene;
+use bevy_cloth::integrate::StepBuffers;
+use bevy_cloth::model::internal_forces;
+use bevy_cloth::prelude::*;
+use bevy_cloth::step::step_cloth;
+use criterion::{BatchSize, BenchmarkId, Criterion, criterion_group, criterion_main};
+
+const SIZES: [u32; 3] = [15, 64, 128];
+
+/// The seed's scene after 0.2 s of settling, so links are both stretched
+/// and slack as in a real run.
+fn settled(n: u32) -> ClothBundle {
+    let mut cloth = scene(n);
+    let settings = ClothSettings::default().with_integrator(Integrator::BackwardEuler, 1);
+    let mut buffers = StepBuffers::new(cloth.particles.len());
+    for _ in 0..12 {
+        step_cloth(
+            &mut cloth.particles,
+            &cloth.connections,
+            &settings,
+            &[],
+            &mut buffers,
+            1.0 / 60.0,
+        );
+    }
+    cloth
+}
+
+fn forces(c: &mut Criterion) {
+    let mut group = c.benchmark_group("forces");
+    for n in SIZES {
+        let cloth = settled(n);
+        let mut f = vec![Vec3::ZERO; cloth.particles.len()];
+        for model in [ClothModel::ChoiKo, ClothModel::Lander] {
+            let settings = ClothSettings::default().with_model(model);
+            group.bench_function(BenchmarkId::new(format!("{model:?}"), n), |b| {
+                b.iter(|| {
+                    f.fill(Vec3::ZERO);
+                    internal_forces(
+                        &settings,
+                        &cloth.connections,
+                        &cloth.particles.positions,
+                        &cloth.particles.velocities,
+                        &mut f,
+                    );
+                    black_box(&f);
+                })
+            });
+        }
+    }
+    group.finish();
+}
+
+fn steps(c: &mut Criterion) {
+    let mut group = c.benchmark_group("step");
+    group
+        .measurement_time(Duration::from_secs(3))
+        .sample_size(30);
+    for n in SIZES {
+        let cloth = settled(n);
+        for integrator in Integrator::ALL {
+            let settings = ClothSettings::default().with_integrator(integrator, 1);
+            // Explicit steps at a step each is stable at for 15×15 cotton;
+            // implicit ones at a game's 1/60 s. Every iteration starts from
+            // the same state, so an unstable step cannot skew the timing.
+            let dt = if integrator.is_implicit() {
+                1.0 / 60.0
+            } else {
+                1e-4
+            };
+            let mut buffers = StepBuffers::new(cloth.particles.len());
+            group.bench_function(BenchmarkId::new(integrator.name(), n), |b| {
+                b.iter_batched_ref(
+                    || cloth.particles.clone(),
+                    |particles| {
+                        step_cloth(
+                            particles,
+                            &cloth.connections,
+                            &settings,
+                            &[],
+                            &mut buffers,
+                            dt,
+                        )
+                    },
+                    BatchSize::SmallInput,
+                )
+            });
+        }
+    }
+    group.finish();
+}
+
+/// One `App::update` = one 1/60 s fixed step plus mesh sync, for a 64×64
+/// cloth falling onto a sphere.
+fn game_frame(c: &mut Criterion) {
+    let mut group = c.benchmark_group("frame_64x64_sphere_mesh");
+    group
+        .measurement_time(Duration::from_secs(5))
+        .sample_size(20);
+    for (integrator, substeps) in [
+        (Integrator::BackwardEuler, 1),
+        (Integrator::Bdf2, 1),
+        (Integrator::SymplecticEuler, 220),
+    ] {
+        let mut app = App::new();
+        app.add_plugins((
+            MinimalPlugins,
+            TransformPlugin,
+            AssetPlugin::default(),
+            ClothPlugin::default(),
+        ))
+        .init_asset::<Mesh>()
+        .insert_resource(Time::<Fixed>::from_hz(60.0))
+        .insert_resource(TimeUpdateStrategy::FixedTimesteps(1))
+        .insert_resource(ClothDefaults(
+            ClothSettings::default().with_integrator(integrator, substeps),
+        ));
+        app.world_mut().spawn((
+            ClothCollider::sphere(0.3),
+            Transform::from_xyz(0.0, 1.0, 0.0),
+        ));
+        app.world_mut().spawn(
+            ClothBuilder::new(64, 64)
+                .size(1.0, 1.0)
+                .position(Vec3::new(0.0, 1.35, 0.0))
+                .build()
+                .expect("valid"),
+        );
+        for _ in 0..30 {
+            app.update();
+        }
+        group.bench_function(BenchmarkId::new(integrator.name(), substeps), |b| {
+            b.iter(|| app.update())
+        });
+    }
+    group.finish();
+}
+
+criterion_group!(benches, forces, steps, game_frame);
+criterion_main!(benches);

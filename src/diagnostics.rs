@@ -1,0 +1,108 @@
+//! Live figures as Bevy diagnostics, recorded every fixed step in
+//! [`ClothSystems::Writeback`](crate::ClothSystems::Writeback) (read them
+//! from `DiagnosticsStore`, or let an egui panel show them):
+//!
+//! | path | value |
+//! |---|---|
+//! | [`STEP_TIME`] | µs of integration (with contacts) per fixed step, all cloths |
+//! | [`step_time_path`]`(integrator)` | the same, only cloths using that integrator |
+//! | [`SUBSTEPS`] | largest substep count of any cloth |
+//! | [`MAX_STRAIN`] | largest Type 1 strain of any cloth (dimensionless) |
+//! | [`KINETIC_ENERGY`] | kinetic energy of all cloths, J |
+//! | [`SOLVER_ITERATIONS`] | most conjugate-gradient iterations of any implicit cloth |
+//!
+//! Timing uses the wall clock: for display, never for assertions.
+
+use bevy::app::{App, FixedUpdate};
+use bevy::diagnostic::{Diagnostic, DiagnosticPath, Diagnostics, RegisterDiagnostic};
+use bevy::ecs::schedule::IntoScheduleConfigs;
+use bevy::prelude::{Query, Res};
+
+use crate::schedule::ClothSystems;
+use crate::settings::{ClothDefaults, ClothSettings, Integrator};
+use crate::step::ClothStats;
+
+/// µs of integration per fixed step, summed over cloths.
+pub const STEP_TIME: DiagnosticPath = DiagnosticPath::const_new("cloth/step_us");
+/// Largest substep count.
+pub const SUBSTEPS: DiagnosticPath = DiagnosticPath::const_new("cloth/substeps");
+/// Largest Type 1 strain.
+pub const MAX_STRAIN: DiagnosticPath = DiagnosticPath::const_new("cloth/max_strain");
+/// Total kinetic energy, J.
+pub const KINETIC_ENERGY: DiagnosticPath = DiagnosticPath::const_new("cloth/kinetic_energy");
+/// Most conjugate-gradient iterations.
+pub const SOLVER_ITERATIONS: DiagnosticPath = DiagnosticPath::const_new("cloth/solver_iterations");
+
+static PER_INTEGRATOR: [DiagnosticPath; 5] = [
+    DiagnosticPath::const_new("cloth/step_us/explicit_euler"),
+    DiagnosticPath::const_new("cloth/step_us/symplectic_euler"),
+    DiagnosticPath::const_new("cloth/step_us/rk4"),
+    DiagnosticPath::const_new("cloth/step_us/backward_euler"),
+    DiagnosticPath::const_new("cloth/step_us/bdf2"),
+];
+
+/// The step-time path of one integrator (`cloth/step_us/<name>`).
+pub fn step_time_path(integrator: Integrator) -> &'static DiagnosticPath {
+    let index = Integrator::ALL
+        .iter()
+        .position(|i| *i == integrator)
+        .unwrap_or(0);
+    &PER_INTEGRATOR[index]
+}
+
+pub(crate) fn configure(app: &mut App) {
+    for path in [
+        STEP_TIME,
+        SUBSTEPS,
+        MAX_STRAIN,
+        KINETIC_ENERGY,
+        SOLVER_ITERATIONS,
+    ]
+    .into_iter()
+    .chain(PER_INTEGRATOR.iter().cloned())
+    {
+        app.register_diagnostic(Diagnostic::new(path).with_max_history_length(60));
+    }
+    app.add_systems(
+        FixedUpdate,
+        record
+            .in_set(ClothSystems::Writeback)
+            .after(crate::systems::finish_step),
+    );
+}
+
+fn record(
+    mut diagnostics: Diagnostics,
+    defaults: Res<ClothDefaults>,
+    cloths: Query<(&ClothStats, Option<&ClothSettings>)>,
+) {
+    if cloths.is_empty() {
+        return;
+    }
+    let mut per = [None::<f64>; 5];
+    let (mut time, mut substeps, mut strain, mut energy, mut iterations) =
+        (0.0, 0u32, 0.0f32, 0.0, 0u32);
+    for (stats, own) in &cloths {
+        let settings = own.unwrap_or(&defaults);
+        time += stats.step_micros as f64;
+        substeps = substeps.max(settings.substeps);
+        strain = strain.max(stats.max_strain);
+        energy += stats.kinetic_energy as f64;
+        iterations = iterations.max(stats.solver_iterations);
+        let index = Integrator::ALL
+            .iter()
+            .position(|i| *i == settings.integrator)
+            .unwrap_or(0);
+        *per[index].get_or_insert(0.0) += stats.step_micros as f64;
+    }
+    diagnostics.add_measurement(&STEP_TIME, || time);
+    diagnostics.add_measurement(&SUBSTEPS, || substeps as f64);
+    diagnostics.add_measurement(&MAX_STRAIN, || strain as f64);
+    diagnostics.add_measurement(&KINETIC_ENERGY, || energy);
+    diagnostics.add_measurement(&SOLVER_ITERATIONS, || iterations as f64);
+    for (path, value) in PER_INTEGRATOR.iter().zip(per) {
+        if let Some(value) = value {
+            diagnostics.add_measurement(path, || value);
+        }
+    }
+}

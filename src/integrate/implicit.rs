@@ -1,0 +1,608 @@
+//! Implicit integrators: linearised backward Euler (Baraff–Witkin, MODEL.md
+//! §6.5) and Choi & Ko's second-order BDF (§6.6), solved matrix-free by a
+//! filtered, block-Jacobi preconditioned conjugate gradient.
+//!
+//! Both solve `A Δv = b` with `A = M(1 + αc) − α D − β K`, where `K = ∂F/∂x`
+//! and `D = ∂F/∂v` come as per-connection 3×3 blocks from
+//! [`assemble`](crate::model::jacobian::assemble) and `c` is the absolute
+//! damping (`∂(−cMv)/∂v = −cM`):
+//!
+//! | scheme | α | β | b |
+//! |---|---|---|---|
+//! | backward Euler | h | h² | `h(F₀ + hKv₀)` |
+//! | BDF2 | ⅔h | 4⁄9h² | `⅓M(vₙ − vₙ₋₁) + ⅔h[Fₙ + K(⅓(xₙ − xₙ₋₁) + ⅔h vₙ)]` |
+//!
+//! **Pins** are handled by the filter of BW §5: a pinned particle's rows
+//! are zeroed, so its `Δv` is exactly 0 and it keeps the velocity it was
+//! given (0, or an anchor's). No step allocates once the buffers are warm.
+
+use bevy::math::{Mat3, Vec3};
+
+use crate::model::Dynamics;
+use crate::model::jacobian::{Block, assemble};
+use crate::settings::{ImplicitParams, SlackStiffness};
+
+/// Preallocated state of the implicit integrators for one cloth.
+#[derive(Clone, Debug, Default)]
+pub struct ImplicitBuffers {
+    /// Jacobian blocks of the current step.
+    pub blocks: Vec<Block>,
+    combined: Vec<Mat3>,
+    precond: Vec<Mat3>,
+    force: Vec<Vec3>,
+    rhs: Vec<Vec3>,
+    dv: Vec<Vec3>,
+    r: Vec<Vec3>,
+    d: Vec<Vec3>,
+    q: Vec<Vec3>,
+    y: Vec<Vec3>,
+    tmp: Vec<Vec3>,
+    prev_x: Vec<Vec3>,
+    prev_v: Vec<Vec3>,
+    expected_x: Vec<Vec3>,
+    /// Step length of the stored BDF2 history, if there is one.
+    history: Option<f32>,
+    /// Conjugate-gradient iterations of the last solve.
+    pub last_iterations: u32,
+    /// `√(rᵀP⁻¹r / bᵀP⁻¹b)` at the end of the last solve (dimensionless).
+    pub last_residual: f32,
+}
+
+impl ImplicitBuffers {
+    fn resize(&mut self, n: usize) {
+        if self.force.len() != n {
+            self.history = None;
+        }
+        for buf in [
+            &mut self.force,
+            &mut self.rhs,
+            &mut self.dv,
+            &mut self.r,
+            &mut self.d,
+            &mut self.q,
+            &mut self.y,
+            &mut self.tmp,
+            &mut self.prev_x,
+            &mut self.prev_v,
+            &mut self.expected_x,
+        ] {
+            buf.resize(n, Vec3::ZERO);
+        }
+        self.precond.resize(n, Mat3::IDENTITY);
+    }
+
+    /// Forgets the BDF2 history, so the next BDF2 step is backward Euler.
+    pub fn reset_history(&mut self) {
+        self.history = None;
+    }
+}
+
+/// `out = K w`: `(K w)_a = Σ H (w_b − w_a)`, `(K w)_b = Σ H (w_a − w_b)`.
+pub fn k_times(blocks: &[Block], w: &[Vec3], out: &mut [Vec3]) {
+    out.fill(Vec3::ZERO);
+    for blk in blocks {
+        let t = blk.k * (w[blk.b as usize] - w[blk.a as usize]);
+        out[blk.a as usize] += t;
+        out[blk.b as usize] -= t;
+    }
+}
+
+/// The filtered operator `A`, from per-block `C = αD + βK` and the scaled
+/// mass `M(1 + αc)`.
+struct Operator<'a> {
+    blocks: &'a [Block],
+    combined: &'a [Mat3],
+    inverse_masses: &'a [f32],
+    mass_scale: f32,
+}
+
+impl Operator<'_> {
+    fn apply(&self, d: &[Vec3], out: &mut [Vec3]) {
+        for ((o, &w), &di) in out.iter_mut().zip(self.inverse_masses).zip(d) {
+            *o = if w == 0.0 {
+                Vec3::ZERO
+            } else {
+                di * (self.mass_scale / w)
+            };
+        }
+        for (blk, c) in self.blocks.iter().zip(self.combined) {
+            let (a, b) = (blk.a as usize, blk.b as usize);
+            let t = *c * (d[b] - d[a]);
+            out[a] -= t;
+            out[b] += t;
+        }
+        for (o, &w) in out.iter_mut().zip(self.inverse_masses) {
+            if w == 0.0 {
+                *o = Vec3::ZERO;
+            }
+        }
+    }
+
+    /// Inverses of the 3×3 diagonal blocks of `A` (identity for pins).
+    fn precondition(&self, out: &mut [Mat3]) {
+        for (p, &w) in out.iter_mut().zip(self.inverse_masses) {
+            *p = if w == 0.0 {
+                Mat3::ZERO
+            } else {
+                Mat3::from_diagonal(Vec3::splat(self.mass_scale / w))
+            };
+        }
+        for (blk, c) in self.blocks.iter().zip(self.combined) {
+            out[blk.a as usize] += *c;
+            out[blk.b as usize] += *c;
+        }
+        for (p, &w) in out.iter_mut().zip(self.inverse_masses) {
+            let det = p.determinant();
+            *p = if w == 0.0 {
+                Mat3::IDENTITY
+            } else if det.abs() > 1e-30 && det.is_finite() {
+                p.inverse()
+            } else {
+                // Fall back to the diagonal.
+                Mat3::from_diagonal(Vec3::new(
+                    1.0 / p.x_axis.x,
+                    1.0 / p.y_axis.y,
+                    1.0 / p.z_axis.z,
+                ))
+            };
+        }
+    }
+}
+
+fn dot(a: &[Vec3], b: &[Vec3]) -> f64 {
+    a.iter().zip(b).map(|(x, y)| x.dot(*y) as f64).sum()
+}
+
+/// Solves `A Δv = b` (b already filtered) into `buffers.dv` by PCG with the
+/// block-Jacobi preconditioner `buffers.precond`, starting from `Δv = 0`.
+/// Returns (iterations, relative residual).
+fn pcg(op: &Operator, params: &ImplicitParams, buffers: &mut ImplicitBuffers) -> (u32, f32) {
+    let ImplicitBuffers {
+        precond,
+        rhs,
+        dv,
+        r,
+        d,
+        q,
+        y,
+        ..
+    } = buffers;
+    dv.fill(Vec3::ZERO);
+    r.copy_from_slice(rhs);
+    for ((yi, pi), ri) in y.iter_mut().zip(precond.iter()).zip(r.iter()) {
+        *yi = *pi * *ri;
+    }
+    let delta0 = dot(r, y);
+    if !(delta0 > 0.0 && delta0.is_finite()) {
+        return (0, 0.0);
+    }
+    d.copy_from_slice(y);
+    let mut delta = delta0;
+    let tol2 = (params.tolerance as f64).powi(2);
+    let mut iterations = 0;
+    while iterations < params.max_iterations && delta > tol2 * delta0 {
+        op.apply(d, q);
+        let dq = dot(d, q);
+        if !(dq > 0.0 && dq.is_finite()) {
+            break; // not positive definite along d: stop with what we have
+        }
+        let alpha = (delta / dq) as f32;
+        for i in 0..dv.len() {
+            dv[i] += alpha * d[i];
+            r[i] -= alpha * q[i];
+            y[i] = precond[i] * r[i];
+        }
+        let next = dot(r, y);
+        let beta = (next / delta) as f32;
+        for i in 0..d.len() {
+            d[i] = y[i] + beta * d[i];
+        }
+        delta = next;
+        iterations += 1;
+    }
+    (iterations, (delta / delta0).max(0.0).sqrt() as f32)
+}
+
+/// Assembles forces and blocks at `(x, v)`, adds gravity, damping and the
+/// external forces to `buffers.force` (N), and fills `combined` with
+/// `αD + βK`.
+fn linearise(
+    dynamics: &Dynamics,
+    x: &[Vec3],
+    v: &[Vec3],
+    alpha: f32,
+    beta: f32,
+    buffers: &mut ImplicitBuffers,
+) {
+    let s = dynamics.settings;
+    let keep_slack = match s.implicit.slack_stiffness {
+        SlackStiffness::Keep => true,
+        SlackStiffness::Drop => false,
+        SlackStiffness::Auto => {
+            // β = h² (BE) or 4⁄9h² (BDF2): resolved when h²·k/m_min < 1.
+            let lightest = dynamics.inverse_masses.iter().copied().fold(0.0, f32::max);
+            beta * s.choi_ko.stiffness * lightest > 1.0
+        }
+    };
+    assemble(
+        s,
+        dynamics.connections,
+        keep_slack,
+        x,
+        v,
+        &mut buffers.force,
+        &mut buffers.blocks,
+    );
+    let external = (dynamics.external.len() == x.len()).then_some(dynamics.external);
+    for i in 0..x.len() {
+        let w = dynamics.inverse_masses[i];
+        if w == 0.0 {
+            buffers.force[i] = Vec3::ZERO;
+            continue;
+        }
+        let m = 1.0 / w;
+        buffers.force[i] +=
+            m * (s.gravity - s.damping * v[i]) + external.map_or(Vec3::ZERO, |e| e[i]);
+    }
+    buffers.combined.clear();
+    buffers.combined.extend(
+        buffers
+            .blocks
+            .iter()
+            .map(|blk| blk.d * alpha + blk.k * beta),
+    );
+}
+
+fn solve(dynamics: &Dynamics, alpha: f32, buffers: &mut ImplicitBuffers) {
+    let blocks = std::mem::take(&mut buffers.blocks);
+    let combined = std::mem::take(&mut buffers.combined);
+    let op = Operator {
+        blocks: &blocks,
+        combined: &combined,
+        inverse_masses: dynamics.inverse_masses,
+        mass_scale: 1.0 + alpha * dynamics.settings.damping,
+    };
+    op.precondition(&mut buffers.precond);
+    let (iterations, residual) = pcg(&op, &dynamics.settings.implicit, buffers);
+    buffers.blocks = blocks;
+    buffers.combined = combined;
+    buffers.last_iterations = iterations;
+    buffers.last_residual = residual;
+}
+
+/// Zeroes the rows of pinned particles.
+fn filter(inverse_masses: &[f32], v: &mut [Vec3]) {
+    for (vi, &w) in v.iter_mut().zip(inverse_masses) {
+        if w == 0.0 {
+            *vi = Vec3::ZERO;
+        }
+    }
+}
+
+/// One step of linearised backward Euler (MODEL.md §6.5):
+/// `(M − hD − h²K) Δv = h(F₀ + hKv₀)`, `v₁ = v₀ + Δv`, `x₁ = x₀ + h v₁`.
+///
+/// `x` in m, `v` in m/s, `h` in s. First order, unconditionally stable for
+/// the positive semidefinite Jacobians of
+/// [`jacobian`](crate::model::jacobian).
+pub fn backward_euler(
+    dynamics: &Dynamics,
+    x: &mut [Vec3],
+    v: &mut [Vec3],
+    h: f32,
+    buffers: &mut ImplicitBuffers,
+) {
+    buffers.resize(x.len());
+    buffers.prev_x.copy_from_slice(x);
+    buffers.prev_v.copy_from_slice(v);
+    backward_euler_step(dynamics, x, v, h, buffers);
+    buffers.history = Some(h);
+    buffers.expected_x.copy_from_slice(x);
+}
+
+fn backward_euler_step(
+    dynamics: &Dynamics,
+    x: &mut [Vec3],
+    v: &mut [Vec3],
+    h: f32,
+    buffers: &mut ImplicitBuffers,
+) {
+    linearise(dynamics, x, v, h, h * h, buffers);
+    k_times(&buffers.blocks, v, &mut buffers.tmp);
+    for i in 0..x.len() {
+        buffers.rhs[i] = h * (buffers.force[i] + h * buffers.tmp[i]);
+    }
+    filter(dynamics.inverse_masses, &mut buffers.rhs);
+    solve(dynamics, h, buffers);
+    for i in 0..x.len() {
+        v[i] += buffers.dv[i];
+        x[i] += h * v[i];
+    }
+}
+
+/// How far (m) the state may have moved from where the last step left it
+/// before the BDF2 history is considered stale (a reset, a teleport).
+/// Collision corrections are far smaller.
+const HISTORY_SLACK: f32 = 0.01;
+
+/// One step of second-order BDF (MODEL.md §6.6), the integrator Choi & Ko
+/// used, linearised with one Newton step:
+/// `(M − ⅔hD − 4⁄9h²K) Δv = ⅓M(vₙ − vₙ₋₁) + ⅔h[Fₙ + K(⅓(xₙ − xₙ₋₁) + ⅔h vₙ)]`,
+/// `vₙ₊₁ = vₙ + Δv`, `xₙ₊₁ = 4⁄3xₙ − ⅓xₙ₋₁ + ⅔h vₙ₊₁`.
+///
+/// Without a usable history (the first step, a changed `h` or particle
+/// count, or a state moved more than 1 cm from where the last step left it)
+/// the step is backward Euler. `x` in m, `v` in m/s, `h` in s.
+pub fn bdf2(
+    dynamics: &Dynamics,
+    x: &mut [Vec3],
+    v: &mut [Vec3],
+    h: f32,
+    buffers: &mut ImplicitBuffers,
+) {
+    buffers.resize(x.len());
+    let fresh = buffers.history == Some(h)
+        && x.iter()
+            .zip(&buffers.expected_x)
+            .all(|(a, b)| a.distance_squared(*b) <= HISTORY_SLACK * HISTORY_SLACK);
+    if !fresh {
+        backward_euler(dynamics, x, v, h, buffers);
+        return;
+    }
+    let (alpha, beta) = (2.0 / 3.0 * h, 4.0 / 9.0 * h * h);
+    linearise(dynamics, x, v, alpha, beta, buffers);
+    for i in 0..x.len() {
+        buffers.y[i] = (x[i] - buffers.prev_x[i]) / 3.0 + 2.0 / 3.0 * h * v[i];
+    }
+    let w_term = std::mem::take(&mut buffers.y);
+    k_times(&buffers.blocks, &w_term, &mut buffers.tmp);
+    buffers.y = w_term;
+    for (i, &w) in dynamics.inverse_masses.iter().enumerate() {
+        let inertia = if w == 0.0 {
+            Vec3::ZERO
+        } else {
+            (v[i] - buffers.prev_v[i]) / (3.0 * w)
+        };
+        buffers.rhs[i] = inertia + 2.0 / 3.0 * h * (buffers.force[i] + buffers.tmp[i]);
+    }
+    filter(dynamics.inverse_masses, &mut buffers.rhs);
+    solve(dynamics, alpha, buffers);
+    for i in 0..x.len() {
+        let (xn, vn) = (x[i], v[i]);
+        let v1 = vn + buffers.dv[i];
+        // 4⁄3xₙ − ⅓xₙ₋₁ + ⅔hv written as xₙ plus a small increment, so f32
+        // rounds once per step instead of cancelling large terms.
+        let x1 = xn + ((xn - buffers.prev_x[i]) / 3.0 + 2.0 / 3.0 * h * v1);
+        buffers.prev_x[i] = xn;
+        buffers.prev_v[i] = vn;
+        x[i] = x1;
+        v[i] = v1;
+    }
+    buffers.expected_x.copy_from_slice(x);
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::cloth::ClothBuilder;
+    use crate::connections::{ClothConnections, Link};
+    use crate::settings::{ClothModel, ClothSettings};
+
+    /// Dense `A` (3n × 3n, f64) from the blocks, pinned rows and columns
+    /// replaced by the identity.
+    #[expect(
+        clippy::needless_range_loop,
+        reason = "dense matrix indices read best as indices"
+    )]
+    fn dense(buffers: &ImplicitBuffers, w: &[f32], mass_scale: f32) -> Vec<Vec<f64>> {
+        let n = w.len();
+        let mut a = vec![vec![0.0f64; 3 * n]; 3 * n];
+        for i in 0..n {
+            for k in 0..3 {
+                a[3 * i + k][3 * i + k] = if w[i] == 0.0 {
+                    0.0
+                } else {
+                    (mass_scale / w[i]) as f64
+                };
+            }
+        }
+        for (blk, c) in buffers.blocks.iter().zip(&buffers.combined) {
+            let (p, q) = (blk.a as usize, blk.b as usize);
+            for r in 0..3 {
+                for s in 0..3 {
+                    let v = c.col(s)[r] as f64;
+                    a[3 * p + r][3 * p + s] += v;
+                    a[3 * q + r][3 * q + s] += v;
+                    a[3 * p + r][3 * q + s] -= v;
+                    a[3 * q + r][3 * p + s] -= v;
+                }
+            }
+        }
+        for i in (0..n).filter(|&i| w[i] == 0.0) {
+            for k in 0..3 {
+                for j in 0..3 * n {
+                    a[3 * i + k][j] = 0.0;
+                    a[j][3 * i + k] = 0.0;
+                }
+                a[3 * i + k][3 * i + k] = 1.0;
+            }
+        }
+        a
+    }
+
+    /// Gaussian elimination with partial pivoting.
+    #[expect(
+        clippy::needless_range_loop,
+        reason = "dense matrix indices read best as indices"
+    )]
+    fn gauss(mut a: Vec<Vec<f64>>, mut b: Vec<f64>) -> Vec<f64> {
+        let n = b.len();
+        for col in 0..n {
+            let pivot = (col..n)
+                .max_by(|&i, &j| a[i][col].abs().total_cmp(&a[j][col].abs()))
+                .unwrap();
+            a.swap(col, pivot);
+            b.swap(col, pivot);
+            for row in col + 1..n {
+                let f = a[row][col] / a[col][col];
+                for k in col..n {
+                    a[row][k] -= f * a[col][k];
+                }
+                b[row] -= f * b[col];
+            }
+        }
+        let mut x = vec![0.0; n];
+        for row in (0..n).rev() {
+            let s: f64 = (row + 1..n).map(|k| a[row][k] * x[k]).sum();
+            x[row] = (b[row] - s) / a[row][row];
+        }
+        x
+    }
+
+    #[test]
+    fn pcg_matches_a_dense_solve_and_leaves_pins_alone() {
+        let mut cloth = ClothBuilder::new(4, 4).pin(0).pin(3).build().unwrap();
+        // Deform: stretch some links, compress others.
+        for (i, x) in cloth.particles.positions.iter_mut().enumerate() {
+            let s = i as f32;
+            *x += 0.08 * Vec3::new((s * 1.3).sin(), (s * 0.7).cos(), (s * 2.1).sin());
+        }
+        let v: Vec<Vec3> = (0..16)
+            .map(|i| Vec3::splat((i as f32 * 0.4).cos()))
+            .collect();
+        let mut settings = ClothSettings::default();
+        settings.implicit.tolerance = 1e-6;
+        settings.implicit.max_iterations = 500;
+        let w = cloth.particles.inverse_masses.clone();
+        let dynamics = Dynamics {
+            settings: &settings,
+            connections: &cloth.connections,
+            inverse_masses: &w,
+            external: &[],
+        };
+        let h = 1.0 / 30.0;
+        let mut buffers = ImplicitBuffers::default();
+        buffers.resize(16);
+        linearise(
+            &dynamics,
+            &cloth.particles.positions,
+            &v,
+            h,
+            h * h,
+            &mut buffers,
+        );
+        for (i, r) in buffers.rhs.iter_mut().enumerate() {
+            *r = Vec3::new(1.0, -2.0, 0.5) * (i as f32 * 0.3).sin() * 1e-3;
+        }
+        filter(&w, &mut buffers.rhs);
+        solve(&dynamics, h, &mut buffers);
+        let a = dense(&buffers, &w, 1.0 + h * settings.damping);
+        let b: Vec<f64> = buffers
+            .rhs
+            .iter()
+            .flat_map(|r| r.to_array().map(|c| c as f64))
+            .collect();
+        let exact = gauss(a, b);
+        let norm: f64 = exact.iter().map(|x| x * x).sum::<f64>().sqrt();
+        let err: f64 = buffers
+            .dv
+            .iter()
+            .flat_map(|d| d.to_array())
+            .zip(&exact)
+            .map(|(g, e)| (g as f64 - e).powi(2))
+            .sum::<f64>()
+            .sqrt();
+        assert!(
+            err < 1e-3 * norm,
+            "PCG error {err} of {norm} after {} iterations",
+            buffers.last_iterations
+        );
+        assert!(buffers.last_residual <= 1e-6);
+        // Pins: Δv exactly zero.
+        assert_eq!(buffers.dv[0], Vec3::ZERO);
+        assert_eq!(buffers.dv[3], Vec3::ZERO);
+    }
+
+    #[test]
+    fn pinned_particles_keep_their_prescribed_velocity_exactly() {
+        let mut cloth = ClothBuilder::new(5, 5).pin(0).pin(4).build().unwrap();
+        cloth.particles.velocities[4] = Vec3::new(0.3, 0.0, -0.1); // a moving anchor
+        let settings = ClothSettings::default();
+        for integrator in [backward_euler, bdf2] {
+            let mut x = cloth.particles.positions.clone();
+            let mut v = cloth.particles.velocities.clone();
+            let w = cloth.particles.inverse_masses.clone();
+            let dynamics = Dynamics {
+                settings: &settings,
+                connections: &cloth.connections,
+                inverse_masses: &w,
+                external: &[],
+            };
+            let mut buffers = ImplicitBuffers::default();
+            for _ in 0..30 {
+                integrator(&dynamics, &mut x, &mut v, 1.0 / 60.0, &mut buffers);
+            }
+            assert_eq!(x[0], cloth.particles.positions[0]);
+            assert_eq!(v[0], Vec3::ZERO);
+            assert_eq!(v[4], Vec3::new(0.3, 0.0, -0.1));
+            assert!((x[4] - (cloth.particles.positions[4] + 0.5 * v[4])).length() < 1e-5);
+            assert!(x.iter().all(|p| p.is_finite()));
+        }
+    }
+
+    /// A mass on a spring to a pin, `ẍ = −ω²x − c ẋ` along the spring.
+    fn spring_error(
+        step: fn(&Dynamics, &mut [Vec3], &mut [Vec3], f32, &mut ImplicitBuffers),
+        dt: f32,
+    ) -> f64 {
+        let (k, m, c) = (40.0f32, 1.0f32, 0.5f32);
+        let mut settings = ClothSettings::default().with_model(ClothModel::Lander);
+        settings.gravity = Vec3::ZERO;
+        settings.damping = c;
+        settings.lander.structural.stiffness = k;
+        settings.lander.structural.damping = 0.0;
+        settings.implicit.tolerance = 1e-7;
+        let connections = ClothConnections {
+            structural: vec![Link {
+                a: 0,
+                b: 1,
+                rest_length: 1.0,
+            }],
+            ..Default::default()
+        };
+        let w = [0.0, 1.0 / m];
+        let dynamics = Dynamics {
+            settings: &settings,
+            connections: &connections,
+            inverse_masses: &w,
+            external: &[],
+        };
+        let mut x = [Vec3::ZERO, Vec3::new(1.1, 0.0, 0.0)];
+        let mut v = [Vec3::ZERO; 2];
+        let mut buffers = ImplicitBuffers::default();
+        // The largest error over 1 s (a single time would depend on phase).
+        let steps = (1.0 / dt).round() as usize;
+        let (omega2, zw) = ((k / m) as f64, c as f64 / 2.0);
+        let wd = (omega2 - zw * zw).sqrt();
+        let mut worst = 0.0f64;
+        for n in 1..=steps {
+            step(&dynamics, &mut x, &mut v, dt, &mut buffers);
+            let t = n as f64 * dt as f64;
+            let exact = 0.1 * (-zw * t).exp() * ((wd * t).cos() + zw / wd * (wd * t).sin());
+            worst = worst.max(((x[1].x - 1.0) as f64 - exact).abs());
+        }
+        worst
+    }
+
+    #[test]
+    fn backward_euler_is_first_order_and_bdf2_second_order() {
+        // Observed order log₂(e(dt)/e(dt/2)): ~1 for BE (error halves), ~2
+        // for BDF2 (error quarters; its first step is BE, so allow 1.7–2.3).
+        let order = |s: fn(&Dynamics, &mut [Vec3], &mut [Vec3], f32, &mut ImplicitBuffers)| {
+            (spring_error(s, 0.004) / spring_error(s, 0.002)).log2()
+        };
+        let (be, bdf) = (order(backward_euler), order(bdf2));
+        assert!((0.85..1.15).contains(&be), "backward Euler order {be}");
+        assert!((1.7..2.3).contains(&bdf), "BDF2 order {bdf}");
+    }
+}

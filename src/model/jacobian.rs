@@ -1,0 +1,288 @@
+//! Forces and their Jacobians in one pass, for the implicit integrators.
+//!
+//! For every connection `(a, b)` the force on `a` is `F_a = f(ℓ)·u` and its
+//! blocks are `∂F_a/∂x_b = H`, `∂F_a/∂v_b = D` (so `∂F_a/∂x_a = −H` and so
+//! on, MODEL.md §0). [`assemble`] returns the internal forces and one
+//! [`Block`] per active connection; the solver applies `K` and `D` from the
+//! blocks without forming a matrix.
+//!
+//! Choices, each from MODEL.md:
+//! - **Type 1** (§2): `H = k P_u + k(1 − L/ℓ) P_⊥` when taut. When slack the
+//!   force is 0; with `keep_slack` the axial term `k P_u` is **kept**, so the
+//!   linear solve still sees the spring (without it a drop test at 1/30 s
+//!   strained 112 %, with it 7 %; see [`SlackStiffness`](crate::settings::SlackStiffness)).
+//!   Pair damping `D = k_d P_u` while taut.
+//! - **Type 2** (§3.7): `H = (df*/dℓ) P_u` by default (the transverse term
+//!   `(f*/ℓ) P_⊥` is negative and is dropped, as Blender does, keeping `K`
+//!   negative semidefinite); [`Type2Jacobian::Full`] keeps it.
+//! - **Lander** (§7): `H = k P_u + k·max(0, 1 − L/ℓ) P_⊥` (the compressed
+//!   transverse term, negative, is clamped for a definite system; `Full`
+//!   keeps it), damping `D = k_d P_u`.
+
+use bevy::math::{Mat3, Vec3};
+
+use super::choi_ko::{BUCKLING_TABLE, MIN_LENGTH, type2_magnitude};
+use crate::connections::{ClothConnections, Link};
+use crate::settings::{ClothModel, ClothSettings, Type2Jacobian};
+
+/// The Jacobian blocks of one connection.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Block {
+    /// First particle.
+    pub a: u32,
+    /// Second particle.
+    pub b: u32,
+    /// `∂F_a/∂x_b` in N/m (symmetric).
+    pub k: Mat3,
+    /// `∂F_a/∂v_b` in N·s/m (symmetric).
+    pub d: Mat3,
+}
+
+fn outer(u: Vec3) -> Mat3 {
+    Mat3::from_cols(u * u.x, u * u.y, u * u.z)
+}
+
+/// `axial·P_u + transverse·P_⊥`.
+fn block(u: Vec3, axial: f32, transverse: f32) -> Mat3 {
+    let pu = outer(u);
+    pu * axial + (Mat3::IDENTITY - pu) * transverse
+}
+
+/// Adds `force` on `a` (and its opposite on `b`) and records the blocks.
+fn push(l: &Link, force: Vec3, k: Mat3, d: Mat3, f: &mut [Vec3], blocks: &mut Vec<Block>) {
+    f[l.a as usize] += force;
+    f[l.b as usize] -= force;
+    blocks.push(Block {
+        a: l.a,
+        b: l.b,
+        k,
+        d,
+    });
+}
+
+fn stretch(
+    links: &[Link],
+    (k, kd): (f32, f32),
+    (two_sided, full, keep_slack): (bool, bool, bool),
+    x: &[Vec3],
+    v: &[Vec3],
+    f: &mut [Vec3],
+    out: &mut Vec<Block>,
+) {
+    for l in links {
+        let delta = x[l.b as usize] - x[l.a as usize];
+        let len = delta.length();
+        if len < MIN_LENGTH {
+            continue;
+        }
+        let u = delta / len;
+        let taut = len >= l.rest_length;
+        if !taut && !two_sided {
+            // Slack Type 1: no force; maybe keep the axial stiffness.
+            if keep_slack {
+                push(l, Vec3::ZERO, block(u, k, 0.0), Mat3::ZERO, f, out);
+            }
+            continue;
+        }
+        let damping = kd * (v[l.b as usize] - v[l.a as usize]).dot(u);
+        let force = (k * (len - l.rest_length) + damping) * u;
+        let mut transverse = k * (1.0 - l.rest_length / len);
+        if !full {
+            transverse = transverse.max(0.0);
+        }
+        let d = if kd != 0.0 { outer(u) * kd } else { Mat3::ZERO };
+        push(l, force, block(u, k, transverse), d, f, out);
+    }
+}
+
+fn buckle(
+    links: &[Link],
+    kb: f32,
+    cb: f32,
+    full: bool,
+    x: &[Vec3],
+    f: &mut [Vec3],
+    out: &mut Vec<Block>,
+) {
+    let table = &*BUCKLING_TABLE;
+    for l in links {
+        let delta = x[l.b as usize] - x[l.a as usize];
+        let len = delta.length();
+        if len >= l.rest_length || len < MIN_LENGTH {
+            continue;
+        }
+        let u = delta / len;
+        let (mag, slope) = type2_magnitude(table, len, l.rest_length, kb, cb);
+        let transverse = if full { mag / len } else { 0.0 };
+        push(l, mag * u, block(u, slope, transverse), Mat3::ZERO, f, out);
+    }
+}
+
+/// Writes the internal forces (N) at `(x, v)` into `f` (zeroed first) and
+/// the blocks of every active connection into `blocks` (cleared first; its
+/// capacity is reused, so a warm call does not allocate). `keep_slack`
+/// keeps the axial stiffness of slack Type 1 links (module docs).
+pub fn assemble(
+    settings: &ClothSettings,
+    connections: &ClothConnections,
+    keep_slack: bool,
+    x: &[Vec3],
+    v: &[Vec3],
+    f: &mut [Vec3],
+    blocks: &mut Vec<Block>,
+) {
+    f.fill(Vec3::ZERO);
+    blocks.clear();
+    let full = settings.implicit.type2_jacobian == Type2Jacobian::Full;
+    match settings.model {
+        ClothModel::ChoiKo => {
+            let p = &settings.choi_ko;
+            for links in [&connections.structural, &connections.shear] {
+                stretch(
+                    links,
+                    (p.stiffness, p.pair_damping),
+                    (false, full, keep_slack),
+                    x,
+                    v,
+                    f,
+                    blocks,
+                );
+            }
+            for links in [&connections.bend, &connections.bend_diagonal] {
+                buckle(
+                    links,
+                    p.bending_rigidity,
+                    p.buckling_slope,
+                    full,
+                    x,
+                    f,
+                    blocks,
+                );
+            }
+        }
+        ClothModel::Lander => {
+            let p = &settings.lander;
+            for (links, s) in [
+                (&connections.structural, p.structural),
+                (&connections.shear, p.shear),
+                (&connections.bend, p.bend),
+            ] {
+                stretch(
+                    links,
+                    (s.stiffness, s.damping),
+                    (true, full, false),
+                    x,
+                    v,
+                    f,
+                    blocks,
+                );
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::internal_forces;
+
+    fn grid(n: u32) -> (ClothConnections, Vec<Vec3>) {
+        let rest: Vec<Vec3> = (0..n * n)
+            .map(|p| Vec3::new((p % n) as f32 * 0.1, 0.0, (p / n) as f32 * 0.1))
+            .collect();
+        (ClothConnections::grid(n, n, &rest), rest)
+    }
+
+    fn deformed(rest: &[Vec3]) -> Vec<Vec3> {
+        rest.iter()
+            .enumerate()
+            .map(|(i, p)| {
+                let s = i as f32;
+                *p + 0.03 * Vec3::new((s * 1.7).sin(), (s * 0.9).cos(), (s * 2.3).sin())
+            })
+            .collect()
+    }
+
+    #[test]
+    fn forces_match_the_explicit_model() {
+        let (conn, rest) = grid(6);
+        let x = deformed(&rest);
+        let v: Vec<Vec3> = (0..x.len())
+            .map(|i| Vec3::splat((i as f32 * 0.37).sin()))
+            .collect();
+        for model in [ClothModel::ChoiKo, ClothModel::Lander] {
+            let mut s = ClothSettings::default().with_model(model);
+            s.choi_ko.bending_rigidity = 0.05;
+            let mut want = vec![Vec3::ZERO; x.len()];
+            internal_forces(&s, &conn, &x, &v, &mut want);
+            let mut got = vec![Vec3::ZERO; x.len()];
+            let mut blocks = Vec::new();
+            assemble(&s, &conn, true, &x, &v, &mut got, &mut blocks);
+            for (g, w) in got.iter().zip(&want) {
+                assert!(
+                    (*g - *w).length() < 1e-3 * (1.0 + w.length()),
+                    "{model:?}: {g} vs {w}"
+                );
+            }
+        }
+    }
+
+    /// Finite differences: the full blocks are the true derivatives, the
+    /// default ones differ only by the dropped (negative) terms.
+    #[test]
+    fn full_blocks_are_the_derivatives_of_the_forces() {
+        let (conn, rest) = grid(5);
+        let x = deformed(&rest);
+        let v = vec![Vec3::ZERO; x.len()];
+        for model in [ClothModel::ChoiKo, ClothModel::Lander] {
+            let mut s = ClothSettings::default().with_model(model);
+            s.choi_ko.bending_rigidity = 0.05;
+            s.implicit.type2_jacobian = Type2Jacobian::Full;
+            let mut f0 = vec![Vec3::ZERO; x.len()];
+            let mut blocks = Vec::new();
+            assemble(&s, &conn, true, &x, &v, &mut f0, &mut blocks);
+            // Perturb particle p along each axis; F_a of every neighbour a
+            // changes by ∂F_a/∂x_p · e = H_{a,p} e.
+            let p = 12usize;
+            let e = 1e-3;
+            for axis in 0..3 {
+                let mut xp = x.clone();
+                xp[p][axis] += e;
+                let mut f1 = vec![Vec3::ZERO; x.len()];
+                let mut scratch = Vec::new();
+                assemble(&s, &conn, true, &xp, &v, &mut f1, &mut scratch);
+                for blk in blocks
+                    .iter()
+                    .filter(|b| b.a as usize == p || b.b as usize == p)
+                {
+                    let other = if blk.a as usize == p { blk.b } else { blk.a } as usize;
+                    // A slack Type 1 link keeps its axial stiffness on purpose
+                    // while its force is 0: not a derivative, skip it.
+                    let stretch_link = conn
+                        .structural
+                        .iter()
+                        .chain(&conn.shear)
+                        .find(|l| (l.a, l.b) == (blk.a, blk.b));
+                    if model == ClothModel::ChoiKo
+                        && stretch_link.is_some_and(|l| {
+                            x[l.a as usize].distance(x[l.b as usize]) < l.rest_length
+                        })
+                    {
+                        continue;
+                    }
+                    // Only this link joins `other` and `p`, so the change of
+                    // F_other is H·e (∂F_a/∂x_b = ∂F_b/∂x_a = H).
+                    let numeric = (f1[other] - f0[other]) / e;
+                    let mut unit = Vec3::ZERO;
+                    unit[axis] = 1.0;
+                    let analytic = blk.k * unit;
+                    let err = (numeric - analytic).length();
+                    assert!(
+                        err < 0.05 * (1.0 + analytic.length()) + 0.5,
+                        "{model:?} axis {axis}: {numeric} vs {analytic}"
+                    );
+                }
+            }
+        }
+    }
+}

@@ -1,0 +1,61 @@
+//! The accuracy example's measurements reproduce the seed's two headline
+//! ratios (seed §6.1, MODEL.md §10) on preset S, and its JSON lines parse.
+//! Ratios are measured within one run, never absolute times.
+
+use bevy_cloth::accuracy::{Plan, Preset, StableStep, measure};
+use bevy_cloth::prelude::*;
+
+/// The seed: RK4 costs 2.5 / 0.545 = 4.59× explicit Euler per step and
+/// takes a 1.29e-2 / 2.0e-4 = 64.5× larger step.
+const SEED_COST_RATIO: f64 = 2500.0 / 545.0;
+const SEED_STEP_RATIO: f32 = 1.29e-2 / 2.0e-4;
+
+#[test]
+fn preset_seed_reproduces_the_seed_ratios_within_25_percent() {
+    let plan = Plan {
+        grid: 15,
+        preset: Preset::Seed,
+        models: vec![ClothModel::ChoiKo],
+        integrators: vec![Integrator::ExplicitEuler, Integrator::Rk4],
+        reps: 7,
+        steps: 150,
+        bisections: 10,
+        errors: false,
+    };
+    let rows = measure(&plan);
+    assert_eq!(rows.len(), 2);
+    for row in &rows {
+        let json: serde_json::Value = serde_json::from_str(&row.to_json()).expect("valid JSON");
+        for key in [
+            "model",
+            "integrator",
+            "grid",
+            "dt",
+            "us_per_step",
+            "max_stable_dt",
+            "error",
+            "cost_per_sim_second",
+        ] {
+            assert!(json.get(key).is_some(), "missing {key} in {json}");
+        }
+        assert_eq!(json["grid"], 15);
+        assert!(matches!(row.max_stable_dt, StableStep::Found(_)), "{row:?}");
+    }
+    let (euler, rk4) = (&rows[0], &rows[1]);
+    let cost = rk4.us_per_step / euler.us_per_step;
+    let step = rk4.max_stable_dt.seconds() / euler.max_stable_dt.seconds();
+    eprintln!(
+        "cost per step RK4/Euler {cost:.2} (seed {SEED_COST_RATIO:.2}); stable step RK4/Euler {step:.1} (seed {SEED_STEP_RATIO:.1}); \
+         Euler {:.3e} s, RK4 {:.3e} s",
+        euler.max_stable_dt.seconds(),
+        rk4.max_stable_dt.seconds()
+    );
+    assert!(
+        (cost / SEED_COST_RATIO - 1.0).abs() <= 0.25,
+        "cost ratio {cost}"
+    );
+    assert!(
+        (step / SEED_STEP_RATIO - 1.0).abs() <= 0.25,
+        "step ratio {step}"
+    );
+}
