@@ -4,6 +4,7 @@ use bevy::math::{Quat, Vec2, Vec3};
 use bevy::prelude::{Bundle, Component, Reflect, ReflectComponent, Transform};
 
 use crate::connections::ClothConnections;
+use crate::interaction::ClothGrabs;
 use crate::particles::ClothParticles;
 use crate::settings::ClothSettings;
 use crate::step::{ClothForces, ClothScratch, ClothStats};
@@ -97,7 +98,7 @@ pub const MAX_PARTICLES: u32 = 1 << 20;
 /// identity unless you want the rendered mesh offset from the simulation.
 #[derive(Component, Clone, Debug, PartialEq, Reflect)]
 #[reflect(Component)]
-#[require(Transform, ClothForces, ClothScratch, ClothStats)]
+#[require(Transform, ClothForces, ClothScratch, ClothStats, ClothGrabs)]
 pub struct Cloth {
     /// Particles per row.
     pub cols: u32,

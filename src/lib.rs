@@ -64,14 +64,18 @@ pub mod collision;
 pub mod connections;
 pub mod diagnostics;
 pub mod integrate;
+pub mod interaction;
 pub mod mesh;
 pub mod model;
 pub mod particles;
+#[cfg(feature = "picking")]
+pub mod picking;
 pub mod pose;
 pub mod schedule;
 pub mod settings;
 pub mod step;
 mod systems;
+pub mod wind;
 
 use bevy::app::{App, FixedUpdate, Plugin};
 use bevy::ecs::schedule::IntoScheduleConfigs;
@@ -91,6 +95,8 @@ pub use crate::systems::check_cloth;
 /// The things most users need: `use bevy_cloth::prelude::*;`.
 pub mod prelude {
     pub use crate::collision::{ClothCollider, ClothCollision, ClothSelfCollision};
+    pub use crate::interaction::{ClothGrabs, GrabMode};
+    pub use crate::wind::ClothWind;
     pub use crate::{
         ClothAnchors, ClothBuilder, ClothBundle, ClothConnections, ClothDefaults, ClothError,
         ClothForces, ClothModel, ClothParticles, ClothPlugin, ClothSettings, ClothStats,
@@ -131,6 +137,8 @@ impl Plugin for ClothPlugin {
             .register_type::<ClothAnchors>()
             .register_type::<ClothForces>()
             .register_type::<ClothStats>()
+            .register_type::<interaction::ClothGrabs>()
+            .register_type::<wind::ClothWind>()
             .configure_sets(
                 FixedUpdate,
                 (Prepare, Crease, Forces, Integrate, Collide, Writeback).chain(),
@@ -139,8 +147,18 @@ impl Plugin for ClothPlugin {
                 FixedUpdate,
                 (
                     anchor::follow_anchors.in_set(Prepare),
+                    (
+                        interaction::apply_grabs,
+                        wind::apply_wind.run_if(wind::wind_blows),
+                    )
+                        .chain()
+                        .in_set(Forces),
                     systems::step_cloths.in_set(Integrate),
-                    (anchor::snap_anchors, systems::finish_step)
+                    (
+                        anchor::snap_anchors,
+                        interaction::snap_grabs,
+                        systems::finish_step,
+                    )
                         .chain()
                         .in_set(Writeback),
                 ),
@@ -149,6 +167,8 @@ impl Plugin for ClothPlugin {
         mesh::configure(app);
         collision::configure(app);
         diagnostics::configure(app);
+        #[cfg(feature = "picking")]
+        picking::configure(app);
         #[cfg(feature = "render")]
         if self.default_material {
             app.add_systems(

@@ -4,13 +4,22 @@
 //! `--frames N` runs N frames and exits; `--screenshot PATH` saves the last
 //! frame to PATH (through Bevy's `Screenshot`) before exiting; `--press K:F`
 //! (repeatable) presses key K (a letter, a digit or `Space`) at frame F, so
-//! a scripted interaction can be checked.
+//! a scripted interaction can be checked; `--drag X0,Y0:X1,Y1@F` presses
+//! the primary mouse button at window pixel (X0, Y0) at frame F, moves to
+//! (X1, Y1) over ten frames and releases: a real pick and pull through
+//! Bevy's mesh picking.
 #![allow(dead_code, reason = "each example uses a different subset")]
 
 use std::path::PathBuf;
 
+use bevy::camera::NormalizedRenderTarget;
+use bevy::picking::hover::HoverMap;
+use bevy::picking::mesh_picking::MeshPickingPlugin;
+use bevy::picking::pointer::{Location, PointerAction, PointerButton, PointerId, PointerInput};
 use bevy::prelude::*;
 use bevy::render::view::screenshot::{Screenshot, ScreenshotCaptured, save_to_disk};
+use bevy::window::{PrimaryWindow, WindowRef};
+use bevy_cloth::picking::PointerGrabs;
 use bevy_cloth::prelude::*;
 use bevy_egui::input::EguiWantsInput;
 use bevy_egui::{EguiContexts, EguiPlugin, EguiPrimaryContextPass, egui};
@@ -37,6 +46,8 @@ pub struct Automation {
     pub screenshot: Option<PathBuf>,
     /// Keys to press, with the frame to press them at.
     pub presses: Vec<(KeyCode, u32)>,
+    /// A scripted mouse drag: from, to (window pixels), starting frame.
+    pub drag: Option<(Vec2, Vec2, u32)>,
     /// Frames rendered so far.
     pub frame: u32,
     requested: bool,
@@ -51,6 +62,7 @@ impl Automation {
             match arg.as_str() {
                 "--frames" => out.frames = args.next().and_then(|n| n.parse().ok()),
                 "--screenshot" => out.screenshot = args.next().map(PathBuf::from),
+                "--drag" => out.drag = args.next().as_deref().and_then(parse_drag),
                 "--press" => {
                     if let Some(press) = args.next().as_deref().and_then(parse_press) {
                         out.presses.push(press);
@@ -69,6 +81,17 @@ impl Automation {
     pub fn active(&self) -> bool {
         self.frames.is_some()
     }
+}
+
+/// `X0,Y0:X1,Y1@F` → (from, to, frame).
+fn parse_drag(s: &str) -> Option<(Vec2, Vec2, u32)> {
+    let (path, frame) = s.split_once('@')?;
+    let (from, to) = path.split_once(':')?;
+    let point = |p: &str| {
+        let (x, y) = p.split_once(',')?;
+        Some(Vec2::new(x.parse().ok()?, y.parse().ok()?))
+    };
+    Some((point(from)?, point(to)?, frame.parse().ok()?))
 }
 
 /// `K:F` → (key K, frame F).
@@ -142,6 +165,7 @@ impl Plugin for ExamplePlugin {
         .add_plugins((
             EguiPlugin::default(),
             PanOrbitCameraPlugin,
+            MeshPickingPlugin,
             ClothPlugin::default(),
         ))
         .insert_resource(Help(self.help))
@@ -149,10 +173,9 @@ impl Plugin for ExamplePlugin {
         .add_systems(EguiPrimaryContextPass, help_overlay)
         .add_systems(Update, automate)
         .add_systems(PreUpdate, scripted_keys.after(bevy::input::InputSystems))
-        .add_systems(
-            PreUpdate,
-            block_camera_under_egui.before(PanOrbitCameraSystemSet),
-        );
+        .add_systems(PostUpdate, block_camera.before(PanOrbitCameraSystemSet))
+        .add_systems(First, scripted_drag)
+        .add_systems(Update, report_grab);
     }
 }
 
@@ -225,13 +248,87 @@ fn help_overlay(
     Ok(())
 }
 
-/// The orbit camera ignores the mouse while egui uses it.
-fn block_camera_under_egui(wants: Res<EguiWantsInput>, mut cameras: Query<&mut PanOrbitCamera>) {
-    let free = !(wants.wants_pointer_input() || wants.is_pointer_over_area());
+/// The orbit camera ignores the mouse while egui uses it, while the pointer
+/// is over a cloth (a press there grabs the cloth) and while a cloth is held.
+fn block_camera(
+    wants: Res<EguiWantsInput>,
+    hovers: Res<HoverMap>,
+    held: Res<PointerGrabs>,
+    cloths: Query<(), With<Cloth>>,
+    mut cameras: Query<&mut PanOrbitCamera>,
+) {
+    let over_cloth = hovers
+        .values()
+        .flat_map(|hits| hits.keys())
+        .any(|e| cloths.contains(*e));
+    let free = !(wants.wants_pointer_input()
+        || wants.is_pointer_over_area()
+        || over_cloth
+        || held.active());
     for mut camera in &mut cameras {
         if camera.enabled != free {
             camera.enabled = free;
         }
+    }
+}
+
+/// Plays the `--drag` script as mouse pointer input.
+fn scripted_drag(
+    auto: Res<Automation>,
+    window: Option<Single<Entity, With<PrimaryWindow>>>,
+    mut input: MessageWriter<PointerInput>,
+) {
+    let (Some((from, to, start)), Some(window)) = (auto.drag, window) else {
+        return;
+    };
+    let Some(target) = WindowRef::Primary.normalize(Some(*window)) else {
+        return;
+    };
+    let at = |position: Vec2| Location {
+        target: NormalizedRenderTarget::Window(target),
+        position,
+    };
+    let step = auto.frame as i64 - start as i64;
+    let mouse = PointerId::Mouse;
+    let along = |k: i64| from.lerp(to, k as f32 / 10.0);
+    match step {
+        0 => {
+            input.write(PointerInput::new(
+                mouse,
+                at(from),
+                PointerAction::Move { delta: Vec2::ZERO },
+            ));
+            input.write(PointerInput::new(
+                mouse,
+                at(from),
+                PointerAction::Press(PointerButton::Primary),
+            ));
+        }
+        1..=10 => {
+            let delta = along(step) - along(step - 1);
+            input.write(PointerInput::new(
+                mouse,
+                at(along(step)),
+                PointerAction::Move { delta },
+            ));
+        }
+        11 => {
+            input.write(PointerInput::new(
+                mouse,
+                at(to),
+                PointerAction::Release(PointerButton::Primary),
+            ));
+        }
+        _ => {}
+    }
+}
+
+/// Logs once when the pointer first holds a particle (the rendering check
+/// looks for this line).
+fn report_grab(held: Res<PointerGrabs>, mut said: Local<bool>) {
+    if !*said && let Some((cloth, particle, ..)) = held.0.values().next() {
+        info!("pointer holds particle {particle} of cloth {cloth}");
+        *said = true;
     }
 }
 
