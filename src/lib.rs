@@ -61,6 +61,7 @@ pub mod accuracy;
 pub mod anchor;
 pub mod cloth;
 pub mod collision;
+pub mod compare;
 pub mod connections;
 pub mod diagnostics;
 pub mod integrate;
