@@ -17,8 +17,7 @@ use bevy::prelude::*;
 use bevy_cloth::prelude::*;
 use common::{ExamplePlugin, spawn_stage};
 
-const HELP: &str =
-    "left: Choi–Ko · right: Lander · P: same scripted pull on both · R: reset · mouse: grab (left), pin (right) · drag: orbit";
+const HELP: &str = "left: Choi–Ko · right: Lander · P: same scripted pull on both · R: reset · mouse: grab (left), pin (right) · drag: orbit";
 
 /// Bar height (m) and the two cloths' centres along X (m).
 const BAR: f32 = 1.8;
@@ -55,8 +54,18 @@ fn cloth(x: f32) -> ClothBundle {
         .expect("a valid cloth")
 }
 
-fn setup(mut commands: Commands, mut meshes: ResMut<Assets<Mesh>>, mut materials: ResMut<Assets<StandardMaterial>>) {
-    spawn_stage(&mut commands, &mut meshes, &mut materials, Vec3::new(0.0, 1.2, 0.0), 3.6);
+fn setup(
+    mut commands: Commands,
+    mut meshes: ResMut<Assets<Mesh>>,
+    mut materials: ResMut<Assets<StandardMaterial>>,
+) {
+    spawn_stage(
+        &mut commands,
+        &mut meshes,
+        &mut materials,
+        Vec3::new(0.0, 1.2, 0.0),
+        3.6,
+    );
     let wood = materials.add(Color::srgb(0.45, 0.3, 0.18));
     commands.spawn((
         Mesh3d(meshes.add(Cylinder::new(0.02, 2.6))),
@@ -117,7 +126,11 @@ fn script(
         let goal = rest + Vec3::new(0.0, 0.0, 0.4);
         if t <= 1.0 {
             if grabs.is_empty() {
-                grabs.grab(corner as u32, particles.positions[corner], GrabMode::Kinematic);
+                grabs.grab(
+                    corner as u32,
+                    particles.positions[corner],
+                    GrabMode::Kinematic,
+                );
             }
             grabs.set_targets(rest.lerp(goal, (t / 0.5).min(1.0)));
         } else {

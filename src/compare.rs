@@ -148,6 +148,9 @@ mod tests {
         }
         let folded = wrinkle_measure(&b.cloth, &x);
         // 4 of the 40 interior edges bend by 90°.
-        assert!((folded - 4.0 * std::f32::consts::FRAC_PI_2 / 40.0).abs() < 1e-3, "{folded}");
+        assert!(
+            (folded - 4.0 * std::f32::consts::FRAC_PI_2 / 40.0).abs() < 1e-3,
+            "{folded}"
+        );
     }
 }

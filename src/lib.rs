@@ -50,7 +50,8 @@
 //! | feature | default | what it adds |
 //! |---|---|---|
 //! | `render` | yes | a default double-sided `StandardMaterial` for cloths that have none (pulls in `bevy_pbr`) |
-//! | `picking` | yes | `RayCastBackfaces` on cloth meshes so a double-sided cloth is picked from behind (pulls in `bevy_picking`) |
+//! | `picking` | yes | pick and pull cloths with the mouse ([`picking`]); `RayCastBackfaces` on cloth meshes so a double-sided cloth is picked from behind (pulls in `bevy_picking`) |
+//! | `egui` | yes | `ClothPanelPlugin`, an egui panel to steer every cloth (pulls in `bevy_egui`) |
 //!
 //! Without default features the crate is headless: no renderer, no window,
 //! no `wgpu`; meshes are still kept up to date when `Assets<Mesh>` exists.
@@ -68,6 +69,8 @@ pub mod integrate;
 pub mod interaction;
 pub mod mesh;
 pub mod model;
+#[cfg(feature = "egui")]
+pub mod panel;
 pub mod particles;
 #[cfg(feature = "picking")]
 pub mod picking;
@@ -140,9 +143,13 @@ impl Plugin for ClothPlugin {
             .register_type::<ClothStats>()
             .register_type::<interaction::ClothGrabs>()
             .register_type::<wind::ClothWind>()
+            .init_resource::<schedule::ClothPause>()
+            .register_type::<schedule::ClothPause>()
             .configure_sets(
                 FixedUpdate,
-                (Prepare, Crease, Forces, Integrate, Collide, Writeback).chain(),
+                (Prepare, Crease, Forces, Integrate, Collide, Writeback)
+                    .chain()
+                    .run_if(schedule::cloth_running),
             )
             .add_systems(
                 FixedUpdate,
@@ -159,6 +166,7 @@ impl Plugin for ClothPlugin {
                         anchor::snap_anchors,
                         interaction::snap_grabs,
                         systems::finish_step,
+                        schedule::consume_step,
                     )
                         .chain()
                         .in_set(Writeback),

@@ -16,10 +16,13 @@
 //!    to their anchors, external forces are cleared, [`ClothStats`](crate::step::ClothStats)
 //!    are measured. Read the stepped state after this set.
 //!
+//! All six sets run only while the simulation is not paused ([`ClothPause`]).
+//!
 //! The rendered mesh is written later, in `PostUpdate`
 //! ([`ClothMeshSystems`](crate::mesh::ClothMeshSystems)).
 
 use bevy::ecs::schedule::SystemSet;
+use bevy::prelude::{Reflect, ReflectResource, Res, ResMut, Resource};
 
 /// The stages of a cloth step in `FixedUpdate`, chained in declaration order.
 #[derive(SystemSet, Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -36,4 +39,29 @@ pub enum ClothSystems {
     Collide,
     /// Pins are made exact, per-step buffers cleared, statistics measured.
     Writeback,
+}
+
+/// Pauses every cloth, or runs a given number of fixed steps while paused.
+#[derive(Resource, Clone, Debug, Default, PartialEq, Reflect)]
+#[reflect(Resource)]
+pub struct ClothPause {
+    /// Whether the simulation is paused.
+    pub paused: bool,
+    /// Fixed steps still to run while paused (single stepping).
+    pub steps: u32,
+}
+
+/// Run condition of the [`ClothSystems`] sets: not paused, or a step asked for.
+pub fn cloth_running(pause: Option<Res<ClothPause>>) -> bool {
+    pause.is_none_or(|p| !p.paused || p.steps > 0)
+}
+
+/// Uses up one single step at the end of a paused fixed step.
+pub(crate) fn consume_step(pause: Option<ResMut<ClothPause>>) {
+    if let Some(mut pause) = pause
+        && pause.paused
+        && pause.steps > 0
+    {
+        pause.steps -= 1;
+    }
 }

@@ -12,7 +12,14 @@ fn lander_and_choi_ko_after_the_same_pull() {
         eprintln!(
             "{name}: kinetic {:.2e} / {:.2e} / {:.2e} J, mean speed {:.2e} / {:.2e} / {:.2e} m/s at 1/2/5 s, \
              wrinkle {:.4} rad, peak strain {:.2} %",
-            r.kinetic[0], r.kinetic[1], r.kinetic[2], r.speed[0], r.speed[1], r.speed[2], r.wrinkle, 100.0 * r.peak_strain
+            r.kinetic[0],
+            r.kinetic[1],
+            r.kinetic[2],
+            r.speed[0],
+            r.speed[1],
+            r.speed[2],
+            r.wrinkle,
+            100.0 * r.peak_strain
         );
         assert!(r.finite);
     }

@@ -12,13 +12,14 @@
 
 use std::path::PathBuf;
 
-use bevy::camera::NormalizedRenderTarget;
+use bevy::input::ButtonState;
+use bevy::input::mouse::MouseButtonInput;
 use bevy::picking::hover::HoverMap;
 use bevy::picking::mesh_picking::MeshPickingPlugin;
-use bevy::picking::pointer::{Location, PointerAction, PointerButton, PointerId, PointerInput};
 use bevy::prelude::*;
 use bevy::render::view::screenshot::{Screenshot, ScreenshotCaptured, save_to_disk};
-use bevy::window::{PrimaryWindow, WindowRef};
+use bevy::window::{CursorMoved, PrimaryWindow, WindowEvent};
+use bevy_cloth::panel::ClothPanelPlugin;
 use bevy_cloth::picking::PointerGrabs;
 use bevy_cloth::prelude::*;
 use bevy_egui::input::EguiWantsInput;
@@ -48,6 +49,8 @@ pub struct Automation {
     pub presses: Vec<(KeyCode, u32)>,
     /// A scripted mouse drag: from, to (window pixels), starting frame.
     pub drag: Option<(Vec2, Vec2, u32)>,
+    /// `--no-panel`: leave the egui cloth panel out.
+    pub no_panel: bool,
     /// Frames rendered so far.
     pub frame: u32,
     requested: bool,
@@ -62,6 +65,7 @@ impl Automation {
             match arg.as_str() {
                 "--frames" => out.frames = args.next().and_then(|n| n.parse().ok()),
                 "--screenshot" => out.screenshot = args.next().map(PathBuf::from),
+                "--no-panel" => out.no_panel = true,
                 "--drag" => out.drag = args.next().as_deref().and_then(parse_drag),
                 "--press" => {
                     if let Some(press) = args.next().as_deref().and_then(parse_press) {
@@ -154,6 +158,8 @@ fn parse_press(s: &str) -> Option<(KeyCode, u32)> {
 
 impl Plugin for ExamplePlugin {
     fn build(&self, app: &mut App) {
+        let automation = Automation::from_args();
+        let panel = !automation.no_panel;
         app.add_plugins(DefaultPlugins.set(WindowPlugin {
             primary_window: Some(Window {
                 title: self.title.into(),
@@ -169,13 +175,16 @@ impl Plugin for ExamplePlugin {
             ClothPlugin::default(),
         ))
         .insert_resource(Help(self.help))
-        .insert_resource(Automation::from_args())
+        .insert_resource(automation)
         .add_systems(EguiPrimaryContextPass, help_overlay)
         .add_systems(Update, automate)
         .add_systems(PreUpdate, scripted_keys.after(bevy::input::InputSystems))
         .add_systems(PostUpdate, block_camera.before(PanOrbitCameraSystemSet))
         .add_systems(First, scripted_drag)
         .add_systems(Update, report_grab);
+        if panel {
+            app.add_plugins(ClothPanelPlugin);
+        }
     }
 }
 
@@ -272,52 +281,48 @@ fn block_camera(
     }
 }
 
-/// Plays the `--drag` script as mouse pointer input.
+/// Plays the `--drag` script as window events (cursor moves and left
+/// button press/release), exactly what winit would deliver, so egui, Bevy's
+/// picking and the camera all see the same mouse.
 fn scripted_drag(
     auto: Res<Automation>,
     window: Option<Single<Entity, With<PrimaryWindow>>>,
-    mut input: MessageWriter<PointerInput>,
+    mut events: MessageWriter<WindowEvent>,
 ) {
     let (Some((from, to, start)), Some(window)) = (auto.drag, window) else {
         return;
     };
-    let Some(target) = WindowRef::Primary.normalize(Some(*window)) else {
-        return;
-    };
-    let at = |position: Vec2| Location {
-        target: NormalizedRenderTarget::Window(target),
-        position,
-    };
+    let window = *window;
     let step = auto.frame as i64 - start as i64;
-    let mouse = PointerId::Mouse;
     let along = |k: i64| from.lerp(to, k as f32 / 10.0);
+    let cursor = |position: Vec2| {
+        WindowEvent::CursorMoved(CursorMoved {
+            window,
+            position,
+            delta: None,
+        })
+    };
+    let button = |state: ButtonState| {
+        WindowEvent::MouseButtonInput(MouseButtonInput {
+            button: MouseButton::Left,
+            state,
+            window,
+        })
+    };
     match step {
+        // The cursor arrives a few frames before the press, as a hand's
+        // would, so whatever is under it (egui, the cloth) knows first.
+        -5 => {
+            events.write(cursor(from));
+        }
         0 => {
-            input.write(PointerInput::new(
-                mouse,
-                at(from),
-                PointerAction::Move { delta: Vec2::ZERO },
-            ));
-            input.write(PointerInput::new(
-                mouse,
-                at(from),
-                PointerAction::Press(PointerButton::Primary),
-            ));
+            events.write(button(ButtonState::Pressed));
         }
         1..=10 => {
-            let delta = along(step) - along(step - 1);
-            input.write(PointerInput::new(
-                mouse,
-                at(along(step)),
-                PointerAction::Move { delta },
-            ));
+            events.write(cursor(along(step)));
         }
         11 => {
-            input.write(PointerInput::new(
-                mouse,
-                at(to),
-                PointerAction::Release(PointerButton::Primary),
-            ));
+            events.write(button(ButtonState::Released));
         }
         _ => {}
     }
