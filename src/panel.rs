@@ -60,7 +60,6 @@ fn log_slider(
     );
 }
 
-#[expect(clippy::too_many_arguments, reason = "one panel, many resources")]
 fn panel(
     mut contexts: EguiContexts,
     mut defaults: ResMut<ClothDefaults>,
