@@ -47,6 +47,17 @@ impl ClothParticles {
 
     /// Pins particle `i` where it is, at rest. Returns `false` if `i` is out
     /// of range.
+    ///
+    /// ```
+    /// # use bevy::prelude::*;
+    /// # use bevy_cloth::prelude::*;
+    /// /// Nail the cloth's first particle where it is; free it again with `unpin`.
+    /// fn nail(mut cloths: Query<&mut ClothParticles>) {
+    ///     for mut particles in &mut cloths {
+    ///         particles.pin(0);
+    ///     }
+    /// }
+    /// ```
     pub fn pin(&mut self, i: usize) -> bool {
         if i >= self.len() {
             return false;

@@ -24,6 +24,19 @@ use crate::particles::ClothParticles;
 use crate::step::ClothForces;
 
 /// The air around every cloth.
+///
+/// ```
+/// # use bevy::prelude::*;
+/// # use bevy_cloth::prelude::*;
+/// /// A gusty 6 m/s breeze from the west.
+/// fn breeze(mut commands: Commands) {
+///     commands.insert_resource(ClothWind {
+///         velocity: Vec3::new(6.0, 0.0, 0.0),
+///         gust_amplitude: 0.4,
+///         ..default()
+///     });
+/// }
+/// ```
 #[derive(Resource, Clone, Copy, Debug, PartialEq, Reflect)]
 #[reflect(Resource)]
 pub struct ClothWind {
