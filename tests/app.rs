@@ -11,22 +11,7 @@ use bevy::prelude::*;
 use bevy::time::TimeUpdateStrategy;
 use bevy::transform::TransformPlugin;
 use bevy_cloth::prelude::*;
-use common::sheet as hanging;
-
-/// An app whose every `update()` after the first runs exactly one 60 Hz
-/// fixed step.
-fn app() -> App {
-    let mut app = App::new();
-    app.add_plugins((MinimalPlugins, TransformPlugin, ClothPlugin::default()))
-        .insert_resource(Time::<Fixed>::from_hz(60.0))
-        .insert_resource(TimeUpdateStrategy::FixedTimesteps(1));
-    app.update(); // the first update runs no fixed step
-    app
-}
-
-fn particles(app: &App, e: Entity) -> &ClothParticles {
-    app.world().get::<ClothParticles>(e).unwrap()
-}
+use common::{app, particles, sheet as hanging};
 
 #[test]
 fn hanging_cloth_keeps_pins_exact_and_hangs_below_them() {

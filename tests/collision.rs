@@ -4,23 +4,14 @@
 
 mod common;
 
+use common::app;
+
 use bevy::mesh::Meshable;
 use bevy::prelude::*;
-use bevy::time::TimeUpdateStrategy;
-use bevy::transform::TransformPlugin;
 use bevy_cloth::collision::ClothCollisionStats;
 use bevy_cloth::prelude::*;
 
 const THICKNESS: f32 = 0.005;
-
-fn app() -> App {
-    let mut app = App::new();
-    app.add_plugins((MinimalPlugins, TransformPlugin, ClothPlugin::default()))
-        .insert_resource(Time::<Fixed>::from_hz(60.0))
-        .insert_resource(TimeUpdateStrategy::FixedTimesteps(1));
-    app.update();
-    app
-}
 
 fn positions(app: &App, e: Entity) -> Vec<Vec3> {
     app.world()

@@ -3,23 +3,8 @@
 mod common;
 
 use bevy::prelude::*;
-use bevy::time::TimeUpdateStrategy;
-use bevy::transform::TransformPlugin;
 use bevy_cloth::prelude::*;
-use common::hanging;
-
-fn app() -> App {
-    let mut app = App::new();
-    app.add_plugins((MinimalPlugins, TransformPlugin, ClothPlugin::default()))
-        .insert_resource(Time::<Fixed>::from_hz(60.0))
-        .insert_resource(TimeUpdateStrategy::FixedTimesteps(1));
-    app.update();
-    app
-}
-
-fn particles(app: &App, e: Entity) -> &ClothParticles {
-    app.world().get::<ClothParticles>(e).unwrap()
-}
+use common::{app, hanging, particles};
 
 fn grabs(app: &mut App, e: Entity) -> Mut<'_, ClothGrabs> {
     app.world_mut().get_mut::<ClothGrabs>(e).unwrap()

@@ -1,9 +1,9 @@
 //! Scenes shared by the integration tests.
 #![allow(dead_code, reason = "each test binary uses a different subset")]
 
-use std::f32::consts::FRAC_PI_2;
-
-use bevy::math::{Quat, Vec3};
+use bevy::prelude::*;
+use bevy::time::TimeUpdateStrategy;
+use bevy::transform::TransformPlugin;
 use bevy_cloth::integrate::StepBuffers;
 use bevy_cloth::prelude::*;
 use bevy_cloth::step::{ClothStats, step_cloth};
@@ -11,15 +11,23 @@ use bevy_cloth::step::{ClothStats, step_cloth};
 /// The seed's scene (MODEL.md §10.2, §11): an `n × n`, 1 m cotton cloth
 /// standing in the XY plane, row 0 at y = 2 m, pinned at its two top corners.
 pub fn hanging(n: u32) -> ClothBundle {
-    ClothBuilder::new(n, n)
-        .size(1.0, 1.0)
-        .mass_per_area(0.15)
-        .position(Vec3::new(0.0, 1.5, 0.0))
-        .rotation(Quat::from_rotation_x(FRAC_PI_2))
-        .pin_corner(GridCorner::TopLeft)
-        .pin_corner(GridCorner::TopRight)
-        .build()
-        .expect("valid cloth")
+    bevy_cloth::accuracy::scene(n)
+}
+
+/// An app whose every `update()` after the first runs exactly one 60 Hz
+/// fixed step (DESIGN.md §8 recipe); the first update is already done.
+pub fn app() -> App {
+    let mut app = App::new();
+    app.add_plugins((MinimalPlugins, TransformPlugin, ClothPlugin::default()))
+        .insert_resource(Time::<Fixed>::from_hz(60.0))
+        .insert_resource(TimeUpdateStrategy::FixedTimesteps(1));
+    app.update(); // the first update runs no fixed step
+    app
+}
+
+/// The particles of cloth `e`.
+pub fn particles(app: &App, e: Entity) -> &ClothParticles {
+    app.world().get::<ClothParticles>(e).unwrap()
 }
 
 /// A horizontal `n × n`, 1 m cotton sheet at y = 2 m pinned at two corners
