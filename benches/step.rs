@@ -152,9 +152,14 @@ fn game_frame(c: &mut Criterion) {
 /// about 10 600 triangles: the BVH keeps the cost from following the count.
 fn mesh_collider(c: &mut Criterion) {
     let mut group = c.benchmark_group("frame_32x32_on_mesh_sphere");
-    group.measurement_time(Duration::from_secs(4)).sample_size(20);
+    group
+        .measurement_time(Duration::from_secs(4))
+        .sample_size(20);
     for subdivisions in [1u32, 22] {
-        let sphere = Sphere::new(0.3).mesh().ico(subdivisions).expect("valid ico sphere");
+        let sphere = Sphere::new(0.3)
+            .mesh()
+            .ico(subdivisions)
+            .expect("valid ico sphere");
         let collider = ClothCollider::mesh(&sphere).expect("a triangle mesh");
         let triangles = match &collider.shape {
             bevy_cloth::collision::ColliderShape::Mesh(m) => m.0.triangles.len(),
@@ -164,8 +169,11 @@ fn mesh_collider(c: &mut Criterion) {
         app.add_plugins((MinimalPlugins, TransformPlugin, ClothPlugin::default()))
             .insert_resource(Time::<Fixed>::from_hz(60.0))
             .insert_resource(TimeUpdateStrategy::FixedTimesteps(1))
-            .insert_resource(ClothDefaults(ClothSettings::default().with_integrator(Integrator::Bdf2, 1)));
-        app.world_mut().spawn((collider, Transform::from_xyz(0.0, 1.0, 0.0)));
+            .insert_resource(ClothDefaults(
+                ClothSettings::default().with_integrator(Integrator::Bdf2, 1),
+            ));
+        app.world_mut()
+            .spawn((collider, Transform::from_xyz(0.0, 1.0, 0.0)));
         app.world_mut().spawn(
             ClothBuilder::new(32, 32)
                 .size(1.0, 1.0)
@@ -176,7 +184,9 @@ fn mesh_collider(c: &mut Criterion) {
         for _ in 0..60 {
             app.update();
         }
-        group.bench_function(BenchmarkId::new("triangles", triangles), |b| b.iter(|| app.update()));
+        group.bench_function(BenchmarkId::new("triangles", triangles), |b| {
+            b.iter(|| app.update())
+        });
     }
     group.finish();
 }

@@ -80,6 +80,10 @@ pub enum ClothError {
     /// The implicit solve needs a tolerance in (0, 1) and at least one iteration.
     #[error("the implicit solver needs a tolerance in (0, 1) and at least one iteration")]
     InvalidSolver,
+    /// A crease is invalid (non-finite, ratio outside (0, 1], angle outside
+    /// [0, π), zero length, or missing the cloth).
+    #[error("invalid crease: {0}")]
+    InvalidCrease(&'static str),
     /// Gravity (m/s²) must be finite.
     #[error("gravity must be finite, got {0}")]
     InvalidGravity(Vec3),

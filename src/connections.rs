@@ -58,6 +58,51 @@ pub struct ClothConnections {
     pub bend: Vec<Link>,
     /// Diagonal ±2 neighbours, rest length `2√2·h` (Choi–Ko only).
     pub bend_diagonal: Vec<Link>,
+    /// Tension-only springs added across creases (rest length `L'`, m).
+    pub crease: Vec<Link>,
+    /// Fold-direction terms of creases with a chosen side.
+    pub fold: Vec<FoldTriple>,
+}
+
+/// The fold-direction term of one crossing connection (MODEL.md §9.4b):
+/// ends `a`, `c`, hinge particle midway, and the hinge's four grid
+/// neighbours for its normal.
+#[derive(Clone, Copy, Debug, PartialEq, Reflect)]
+pub struct FoldTriple {
+    /// One end.
+    pub a: u32,
+    /// The particle midway between the ends.
+    pub hinge: u32,
+    /// The other end.
+    pub c: u32,
+    /// The hinge's neighbours left, right, up and down (for its normal).
+    pub around: [u32; 4],
+    /// +1 mountain, −1 valley.
+    pub sign: f32,
+    /// `σ_min`: the hinge height (m) the term keeps on its side.
+    pub min_height: f32,
+    /// `k_σ` in N/m.
+    pub stiffness: f32,
+}
+
+/// Adds the fold-direction forces (N) of `triples` to `f`: while the
+/// hinge's signed height `σ = (x_b − ½(x_a + x_c))·n_b` is below `σ_min` on
+/// the chosen side, `F_b = k_σ(σ_min − σ·s)·s·n_b`, `F_a = F_c = −F_b/2`
+/// (they sum to zero).
+pub fn fold_forces(triples: &[FoldTriple], x: &[Vec3], f: &mut [Vec3]) {
+    for t in triples {
+        let [l, r, u, d] = t.around.map(|p| x[p as usize]);
+        let n = (d - u).cross(r - l).normalize_or_zero();
+        let (a, b, c) = (t.a as usize, t.hinge as usize, t.c as usize);
+        let sigma = (x[b] - 0.5 * (x[a] + x[c])).dot(n);
+        let deficit = t.min_height - sigma * t.sign;
+        if deficit > 0.0 {
+            let push = t.stiffness * deficit * t.sign * n;
+            f[b] += push;
+            f[a] -= 0.5 * push;
+            f[c] -= 0.5 * push;
+        }
+    }
 }
 
 /// The connection families, for code that treats them uniformly.
@@ -146,7 +191,13 @@ impl ClothConnections {
             .chain(&self.shear)
             .chain(&self.bend)
             .chain(&self.bend_diagonal)
+            .chain(&self.crease)
             .map(|l| l.a.max(l.b))
+            .chain(self.fold.iter().map(|t| {
+                t.a.max(t.c)
+                    .max(t.hinge)
+                    .max(t.around.into_iter().max().unwrap_or(0))
+            }))
             .max()
     }
 }

@@ -64,6 +64,7 @@ pub mod cloth;
 pub mod collision;
 pub mod compare;
 pub mod connections;
+pub mod crease;
 pub mod diagnostics;
 pub mod integrate;
 pub mod interaction;
@@ -161,6 +162,7 @@ impl Plugin for ClothPlugin {
                     )
                         .chain()
                         .in_set(Forces),
+                    crease::update_creases.in_set(Crease),
                     systems::step_cloths.in_set(Integrate),
                     (
                         anchor::snap_anchors,
@@ -172,7 +174,9 @@ impl Plugin for ClothPlugin {
                         .in_set(Writeback),
                 ),
             );
-        app.add_observer(anchor::stop_on_remove);
+        app.add_observer(anchor::stop_on_remove)
+            .add_observer(crease::remove_creases)
+            .register_type::<crease::ClothCreases>();
         mesh::configure(app);
         collision::configure(app);
         diagnostics::configure(app);

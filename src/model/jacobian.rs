@@ -137,7 +137,11 @@ pub fn assemble(
     match settings.model {
         ClothModel::ChoiKo => {
             let p = &settings.choi_ko;
-            for links in [&connections.structural, &connections.shear] {
+            for links in [
+                &connections.structural,
+                &connections.shear,
+                &connections.crease,
+            ] {
                 stretch(
                     links,
                     (p.stiffness, p.pair_damping),
@@ -177,8 +181,21 @@ pub fn assemble(
                     blocks,
                 );
             }
+            let s = p.structural;
+            let crease = &connections.crease;
+            stretch(
+                crease,
+                (s.stiffness, s.damping),
+                (false, full, keep_slack),
+                x,
+                v,
+                f,
+                blocks,
+            );
         }
     }
+    // The fold-direction term enters as a force only (no Jacobian block).
+    crate::connections::fold_forces(&connections.fold, x, f);
 }
 
 #[cfg(test)]

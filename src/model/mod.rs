@@ -37,6 +37,8 @@ pub fn internal_forces(
             for links in [&connections.bend, &connections.bend_diagonal] {
                 choi_ko::type2_forces(table, links, p.bending_rigidity, p.buckling_slope, x, f);
             }
+            // Crease springs are Type 1 links of rest length L' (MODEL.md §9.1).
+            choi_ko::type1_forces(&connections.crease, p.stiffness, p.pair_damping, x, v, f);
         }
         ClothModel::Lander => {
             let p = &settings.lander;
@@ -47,8 +49,11 @@ pub fn internal_forces(
             ] {
                 lander::spring_forces(links, s.stiffness, s.damping, x, v, f);
             }
+            let s = p.structural;
+            choi_ko::type1_forces(&connections.crease, s.stiffness, s.damping, x, v, f);
         }
     }
+    crate::connections::fold_forces(&connections.fold, x, f);
 }
 
 /// Everything the acceleration of a cloth depends on besides its state.
