@@ -11,7 +11,8 @@
 //! - Vertex positions are the particles' world positions brought into the
 //!   cloth entity's local space, so any cloth `Transform` renders correctly.
 //! - Only cloths whose particles changed are written: a paused cloth costs
-//!   nothing here.
+//!   nothing here. A cloth whose state is not finite keeps its last good
+//!   mesh, so a blow-up never reaches the renderer or picking.
 //! - With no `Assets<Mesh>` (a headless app without asset plugins), none of
 //!   this runs.
 
@@ -147,7 +148,9 @@ pub(crate) fn sync_cloth_meshes(
 ) {
     for (cloth, particles, mesh3d, transform) in &cloths {
         let n = cloth.len();
-        if particles.len() != n || cloth.cols < 2 || cloth.rows < 2 {
+        // A non-finite state keeps the last good mesh: NaN vertices would
+        // break bounds, culling and picking (Bevy asserts on them).
+        if particles.len() != n || cloth.cols < 2 || cloth.rows < 2 || !particles.is_finite() {
             continue;
         }
         let Some(mut mesh) = meshes.get_mut(&mesh3d.0) else {

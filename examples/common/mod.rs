@@ -7,7 +7,7 @@
 //! a scripted interaction can be checked; `--drag X0,Y0:X1,Y1@F` presses
 //! the primary mouse button at window pixel (X0, Y0) at frame F, moves to
 //! (X1, Y1) over ten frames and releases: a real pick and pull through
-//! Bevy's mesh picking.
+//! Bevy's mesh picking (`--drag-shift` holds Shift meanwhile).
 #![allow(dead_code, reason = "each example uses a different subset")]
 
 use std::path::PathBuf;
@@ -51,6 +51,8 @@ pub struct Automation {
     pub drag: Option<(Vec2, Vec2, u32)>,
     /// `--no-panel`: leave the egui cloth panel out.
     pub no_panel: bool,
+    /// `--drag-shift`: hold Shift through the scripted drag.
+    pub drag_shift: bool,
     /// Frames rendered so far.
     pub frame: u32,
     requested: bool,
@@ -66,6 +68,7 @@ impl Automation {
                 "--frames" => out.frames = args.next().and_then(|n| n.parse().ok()),
                 "--screenshot" => out.screenshot = args.next().map(PathBuf::from),
                 "--no-panel" => out.no_panel = true,
+                "--drag-shift" => out.drag_shift = true,
                 "--drag" => out.drag = args.next().as_deref().and_then(parse_drag),
                 "--press" => {
                     if let Some(press) = args.next().as_deref().and_then(parse_press) {
@@ -288,6 +291,7 @@ fn scripted_drag(
     auto: Res<Automation>,
     window: Option<Single<Entity, With<PrimaryWindow>>>,
     mut events: MessageWriter<WindowEvent>,
+    mut buttons: MessageWriter<MouseButtonInput>,
 ) {
     let (Some((from, to, start)), Some(window)) = (auto.drag, window) else {
         return;
@@ -317,12 +321,20 @@ fn scripted_drag(
         }
         0 => {
             events.write(button(ButtonState::Pressed));
+            // winit also sends the button as its own message (what
+            // `ButtonInput<MouseButton>` reads).
+            if let WindowEvent::MouseButtonInput(b) = button(ButtonState::Pressed) {
+                buttons.write(b);
+            }
         }
         1..=10 => {
             events.write(cursor(along(step)));
         }
         11 => {
             events.write(button(ButtonState::Released));
+            if let WindowEvent::MouseButtonInput(b) = button(ButtonState::Released) {
+                buttons.write(b);
+            }
         }
         _ => {}
     }
@@ -337,8 +349,17 @@ fn report_grab(held: Res<PointerGrabs>, mut said: Local<bool>) {
     }
 }
 
-/// Presses the `--press` keys at their frames (held for one frame).
+/// Presses the `--press` keys at their frames (held for one frame), and
+/// holds Shift through a `--drag-shift` drag.
 fn scripted_keys(auto: Res<Automation>, mut keys: ResMut<ButtonInput<KeyCode>>) {
+    if let (true, Some((_, _, start))) = (auto.drag_shift, auto.drag) {
+        let step = auto.frame as i64 - start as i64;
+        if step == -5 {
+            keys.press(KeyCode::ShiftLeft);
+        } else if step == 13 {
+            keys.release(KeyCode::ShiftLeft);
+        }
+    }
     for &(key, frame) in &auto.presses {
         if auto.frame == frame {
             keys.press(key);
