@@ -332,7 +332,10 @@ pub fn restore(connections: &mut ClothConnections, record: &mut CreaseRecord) {
 
 /// [`ClothSystems::Crease`](crate::ClothSystems::Crease): applies changed
 /// creases (only cloths whose `ClothCreases` changed do any work).
-#[expect(clippy::type_complexity, reason = "one query gathers what a crease edit needs")]
+#[expect(
+    clippy::type_complexity,
+    reason = "one query gathers what a crease edit needs"
+)]
 pub(crate) fn update_creases(
     mut commands: Commands,
     mut cloths: Query<

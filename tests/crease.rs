@@ -32,8 +32,11 @@ fn pairs(
         .collect()
 }
 
+/// A connection as (sorted particle pair, (column, row) of one end, of the other).
+type GridLink = ((u32, u32), (i32, i32), (i32, i32));
+
 /// Every Type 2 connection, with its ends' (column, row).
-fn type2(cloth: &ClothBundle) -> Vec<((u32, u32), (i32, i32), (i32, i32))> {
+fn type2(cloth: &ClothBundle) -> Vec<GridLink> {
     cloth
         .connections
         .type2()
