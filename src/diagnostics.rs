@@ -85,7 +85,7 @@ fn record(
     for (stats, own) in &cloths {
         let settings = own.unwrap_or(&defaults);
         time += stats.step_micros as f64;
-        substeps = substeps.max(settings.substeps);
+        substeps = substeps.max(stats.substeps.max(1));
         strain = strain.max(stats.max_strain);
         energy += stats.kinetic_energy as f64;
         iterations = iterations.max(stats.solver_iterations);

@@ -66,6 +66,7 @@ pub mod compare;
 pub mod connections;
 pub mod crease;
 pub mod diagnostics;
+pub mod guard;
 pub mod integrate;
 pub mod interaction;
 pub mod mesh;
@@ -144,6 +145,7 @@ impl Plugin for ClothPlugin {
             .register_type::<ClothStats>()
             .register_type::<interaction::ClothGrabs>()
             .register_type::<wind::ClothWind>()
+            .add_message::<guard::ClothDiverged>()
             .init_resource::<schedule::ClothPause>()
             .register_type::<schedule::ClothPause>()
             .configure_sets(
@@ -168,6 +170,7 @@ impl Plugin for ClothPlugin {
                         anchor::snap_anchors,
                         interaction::snap_grabs,
                         systems::finish_step,
+                        systems::report_divergence,
                         schedule::consume_step,
                     )
                         .chain()

@@ -230,6 +230,8 @@ pub struct ClothSettings {
     pub lander: LanderParams,
     /// Linear solve of the implicit integrators.
     pub implicit: ImplicitParams,
+    /// The divergence guard ([`guard`](crate::guard)).
+    pub guard: crate::guard::GuardSettings,
 }
 
 impl Default for ClothSettings {
@@ -243,6 +245,7 @@ impl Default for ClothSettings {
             choi_ko: ChoiKoParams::default(),
             lander: LanderParams::default(),
             implicit: ImplicitParams::default(),
+            guard: crate::guard::GuardSettings::default(),
         }
     }
 }

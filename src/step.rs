@@ -44,6 +44,8 @@ pub struct ClothScratch {
     /// Whether the cloth was skipped for invalid settings, so the warning is
     /// logged once.
     pub(crate) warned_invalid: bool,
+    /// The divergence guard's state.
+    pub(crate) guard: crate::guard::GuardState,
 }
 
 /// What the last fixed step of a cloth looked like.
@@ -65,6 +67,11 @@ pub struct ClothStats {
     /// Wall-clock time of the last fixed step's integration, µs (for
     /// display; never asserted on).
     pub step_micros: f32,
+    /// Substeps the last step ran with (more than the settings' after the
+    /// divergence guard stepped in).
+    pub substeps: u32,
+    /// Integrator the last step ran with.
+    pub integrator: crate::settings::Integrator,
 }
 
 impl ClothStats {

@@ -3,7 +3,7 @@
 
 use bevy::log::warn;
 use bevy::math::Vec3;
-use bevy::prelude::{Entity, Query, Res, ResMut, Time};
+use bevy::prelude::{Entity, MessageWriter, Query, Res, ResMut, Time};
 use bevy::time::Fixed;
 
 use crate::cloth::ClothError;
@@ -20,6 +20,8 @@ use crate::collision::{
     ClothCollision, ClothCollisionStats, ClothSelfCollision, ColliderScene, SelfCollisionScratch,
     bounds, resolve_substep,
 };
+use crate::guard::{ClothDiverged, Fallback, check};
+use crate::settings::MAX_SUBSTEPS;
 use crate::step::{ClothForces, ClothScratch, ClothStats, Substep, step_cloth_with};
 
 /// Checks what the step indexes so that user edits can never make it panic:
@@ -133,17 +135,60 @@ pub(crate) fn step_cloths(
             },
         );
         let started = Instant::now();
-        step_cloth_with(
-            &mut item.particles,
-            item.connections,
-            settings,
-            &item.forces.0,
-            &mut scratch.buffers,
-            dt,
-            hook,
-        );
+        // The guard keeps the state before the step and, if the step blows
+        // up, redoes it with more substeps or the fallback integrator.
+        let guard = settings.guard;
+        let mut effective = settings.clone();
+        if let Some((substeps, integrator)) = scratch.guard.boost {
+            effective.substeps = substeps;
+            effective.integrator = integrator;
+        }
+        if guard.enabled {
+            scratch.guard.good_x.clone_from(&item.particles.positions);
+            scratch.guard.good_v.clone_from(&item.particles.velocities);
+        }
+        let mut tripped = None;
+        let mut hook = hook;
+        for attempt in 0..=guard.retries {
+            step_cloth_with(
+                &mut item.particles,
+                item.connections,
+                &effective,
+                &item.forces.0,
+                &mut scratch.buffers,
+                dt,
+                hook.as_mut(),
+            );
+            let Some(reason) = guard
+                .enabled
+                .then(|| check(&item.particles, item.connections, &guard))
+                .flatten()
+            else {
+                if let Some(reason) = tripped {
+                    scratch.guard.pending =
+                        Some((reason, effective.substeps, effective.integrator, true));
+                }
+                break;
+            };
+            tripped.get_or_insert(reason);
+            item.particles.positions.clone_from(&scratch.guard.good_x);
+            item.particles.velocities.clone_from(&scratch.guard.good_v);
+            scratch.buffers.implicit.reset_history();
+            match guard.fallback {
+                Fallback::Integrator(i) if effective.integrator != i => effective.integrator = i,
+                _ => effective.substeps = (effective.substeps * 2).min(MAX_SUBSTEPS),
+            }
+            scratch.guard.boost = Some((effective.substeps, effective.integrator));
+            if attempt == guard.retries {
+                let first = tripped.unwrap_or(reason);
+                scratch.guard.pending =
+                    Some((first, effective.substeps, effective.integrator, false));
+            }
+        }
+        item.stats.substeps = effective.substeps;
+        item.stats.integrator = effective.integrator;
         item.stats.step_micros = started.elapsed().as_secs_f32() * 1e6;
-        item.stats.solver_iterations = if settings.integrator.is_implicit() {
+        item.stats.solver_iterations = if effective.integrator.is_implicit() {
             scratch.buffers.implicit.last_iterations
         } else {
             0
@@ -181,5 +226,36 @@ pub(crate) fn finish_step(
         } else {
             stats.finite = particles.is_finite();
         }
+    }
+}
+
+/// [`ClothSystems::Writeback`](crate::schedule::ClothSystems::Writeback):
+/// reports the divergences of this step, warning once per cloth.
+pub(crate) fn report_divergence(
+    mut cloths: Query<(Entity, &mut ClothScratch)>,
+    mut out: MessageWriter<ClothDiverged>,
+) {
+    for (entity, mut scratch) in &mut cloths {
+        let Some((reason, substeps, integrator, recovered)) = scratch.guard.pending.take() else {
+            continue;
+        };
+        if !scratch.guard.warned {
+            warn!(
+                "cloth {entity} diverged ({reason:?}); now {substeps} substeps of {integrator:?}{}",
+                if recovered {
+                    ""
+                } else {
+                    ", still unstable: kept at its last good state"
+                }
+            );
+            scratch.guard.warned = true;
+        }
+        out.write(ClothDiverged {
+            cloth: entity,
+            reason,
+            substeps,
+            integrator,
+            recovered,
+        });
     }
 }

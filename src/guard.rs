@@ -1,0 +1,120 @@
+//! The divergence guard: a cloth whose step blows up is never lost.
+//!
+//! After every fixed step a cheap check looks for non-finite values, a
+//! Type 1 strain above [`GuardSettings::max_strain`] or a particle faster
+//! than [`GuardSettings::max_speed`]. When one trips, the step is undone
+//! (the cloth goes back to its state before it), the substeps are doubled,
+//! or the cloth switches to the fallback integrator, and the step is run
+//! again, up to [`GuardSettings::retries`] times. The stronger setting stays
+//! in force for that cloth (see [`ClothStats`](crate::ClothStats)), a
+//! [`ClothDiverged`] message says what happened, and a warning is logged
+//! once per cloth. If every retry trips, the cloth stays at its last good
+//! state for that step: the cloth is never lost and the app never panics.
+
+use bevy::math::Vec3;
+use bevy::prelude::{Entity, Message, Reflect};
+
+use crate::connections::{ClothConnections, max_strain};
+use crate::particles::ClothParticles;
+use crate::settings::Integrator;
+
+/// What the guard does when a step blows up.
+#[derive(Clone, Copy, Debug, PartialEq, Reflect)]
+pub enum Fallback {
+    /// Double the substeps (up to the settings' limit).
+    MoreSubsteps,
+    /// Switch to this integrator (then double the substeps if it also trips).
+    Integrator(Integrator),
+}
+
+/// Bounds of the divergence guard.
+#[derive(Clone, Copy, Debug, PartialEq, Reflect)]
+pub struct GuardSettings {
+    /// Whether the guard checks at all.
+    pub enabled: bool,
+    /// Largest Type 1 strain `(ℓ − L)/L` allowed (dimensionless; 3 = 300 %,
+    /// beyond any real cloth but well short of a blow-up).
+    pub max_strain: f32,
+    /// Largest particle speed allowed, m/s.
+    pub max_speed: f32,
+    /// Retries per fixed step.
+    pub retries: u32,
+    /// What a retry changes.
+    pub fallback: Fallback,
+}
+
+impl Default for GuardSettings {
+    fn default() -> Self {
+        Self {
+            enabled: true,
+            max_strain: 3.0,
+            max_speed: 200.0,
+            retries: 3,
+            fallback: Fallback::MoreSubsteps,
+        }
+    }
+}
+
+/// Why the guard tripped.
+#[derive(Clone, Copy, Debug, PartialEq, Reflect)]
+pub enum Divergence {
+    /// A position or velocity was NaN or infinite.
+    NonFinite,
+    /// A Type 1 strain (dimensionless) above the bound.
+    Strain(f32),
+    /// A speed (m/s) above the bound.
+    Speed(f32),
+}
+
+/// Sent when a cloth's step blew up and was redone.
+#[derive(Message, Clone, Debug, PartialEq)]
+pub struct ClothDiverged {
+    /// The cloth.
+    pub cloth: Entity,
+    /// What tripped (on the first attempt).
+    pub reason: Divergence,
+    /// The substeps it runs with now.
+    pub substeps: u32,
+    /// The integrator it runs with now.
+    pub integrator: Integrator,
+    /// Whether a retry succeeded (otherwise the cloth stayed at its last
+    /// good state for this step).
+    pub recovered: bool,
+}
+
+/// Checks `particles` against `guard`'s bounds (`None`: all is well).
+pub fn check(
+    particles: &ClothParticles,
+    connections: &ClothConnections,
+    guard: &GuardSettings,
+) -> Option<Divergence> {
+    if !particles.is_finite() {
+        return Some(Divergence::NonFinite);
+    }
+    let fastest = particles
+        .velocities
+        .iter()
+        .map(|v| v.length_squared())
+        .fold(0.0f32, f32::max)
+        .sqrt();
+    if fastest > guard.max_speed {
+        return Some(Divergence::Speed(fastest));
+    }
+    let strain = max_strain(connections.type1(), &particles.positions);
+    if !strain.is_finite() {
+        return Some(Divergence::NonFinite);
+    }
+    (strain > guard.max_strain).then_some(Divergence::Strain(strain))
+}
+
+/// The last good state of a cloth and what the guard has changed.
+#[derive(Clone, Debug, Default)]
+pub struct GuardState {
+    pub(crate) good_x: Vec<Vec3>,
+    pub(crate) good_v: Vec<Vec3>,
+    /// Substeps and integrator the guard moved the cloth to.
+    pub(crate) boost: Option<(u32, Integrator)>,
+    /// A divergence to report at the end of the step.
+    pub(crate) pending: Option<(Divergence, u32, Integrator, bool)>,
+    pub(crate) warned: bool,
+}
