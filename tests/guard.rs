@@ -46,7 +46,7 @@ fn without_the_guard_the_cloth_blows_up() {
         &p.positions,
     );
     assert!(
-        !p.is_finite() || !(strain < 3.0),
+        !p.is_finite() || strain.is_nan() || strain >= 3.0,
         "it should have blown up (strain {strain})"
     );
     assert!(seen.is_empty());
@@ -66,7 +66,7 @@ fn the_guard_restores_doubles_the_substeps_and_says_so() {
     );
     assert!(!seen.is_empty(), "no ClothDiverged message");
     assert_eq!(seen[0].cloth, cloth);
-    assert!(stats.substeps >= 8 && stats.substeps > 4);
+    assert!(stats.substeps >= 8, "{stats:?}");
     assert!(stats.max_strain < 0.05, "{stats:?}");
     // It hangs below its pins like a healthy cloth.
     assert!(p.positions.iter().all(|x| x.y <= p.positions[0].y + 1e-3));
