@@ -5,7 +5,8 @@
 //! than [`GuardSettings::max_speed`]. When one trips, the step is undone
 //! (the cloth goes back to its state before it), the substeps are doubled,
 //! or the cloth switches to the fallback integrator, and the step is run
-//! again, up to [`GuardSettings::retries`] times. The stronger setting stays
+//! again, up to [`GuardSettings::retries`] times and at most
+//! [`GuardSettings::max_boost`] times the configured substeps. The stronger setting stays
 //! in force for that cloth (see [`ClothStats`](crate::ClothStats)), a
 //! [`ClothDiverged`] message says what happened, and a warning is logged
 //! once per cloth. If every retry trips, the cloth stays at its last good
@@ -39,6 +40,10 @@ pub struct GuardSettings {
     pub max_speed: f32,
     /// Retries per fixed step.
     pub retries: u32,
+    /// The guard never runs more than this many times the configured
+    /// substeps, so a trip more substeps cannot cure (a kinematic grab
+    /// stretching the cloth past the bound) cannot make the cost run away.
+    pub max_boost: u32,
     /// What a retry changes.
     pub fallback: Fallback,
 }
@@ -50,6 +55,7 @@ impl Default for GuardSettings {
             max_strain: 3.0,
             max_speed: 200.0,
             retries: 3,
+            max_boost: 16,
             fallback: Fallback::MoreSubsteps,
         }
     }

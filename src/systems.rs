@@ -176,7 +176,13 @@ pub(crate) fn step_cloths(
             scratch.buffers.implicit.reset_history();
             match guard.fallback {
                 Fallback::Integrator(i) if effective.integrator != i => effective.integrator = i,
-                _ => effective.substeps = (effective.substeps * 2).min(MAX_SUBSTEPS),
+                _ => {
+                    let cap = settings
+                        .substeps
+                        .saturating_mul(guard.max_boost.max(1))
+                        .min(MAX_SUBSTEPS);
+                    effective.substeps = (effective.substeps * 2).min(cap);
+                }
             }
             scratch.guard.boost = Some((effective.substeps, effective.integrator));
             if attempt == guard.retries {
