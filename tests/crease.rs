@@ -98,17 +98,22 @@ fn fold_angle(x: &[Vec3]) -> f32 {
         .to_degrees()
 }
 
-fn fold(crease: Crease, lift_hinge: f32) -> f32 {
+/// An app without gravity whose cloths are paper-like: §9.2's angle is
+/// that of rigid flaps, and a paper-like sheet (k_b = 1e-4 N·m²) keeps them
+/// flat, where limp cotton (5e-7) pleats around the line instead of folding.
+fn paper_app() -> App {
     let mut app = app();
     let mut settings = ClothSettings {
         gravity: Vec3::ZERO,
         ..default()
     };
-    // §9.2's angle is that of rigid flaps: a paper-like sheet (k_b =
-    // 1e-4 N·m²) keeps them flat; limp cotton (5e-7) pleats around the line
-    // instead of folding.
     settings.choi_ko.bending_rigidity = 1e-4;
     app.insert_resource(ClothDefaults(settings));
+    app
+}
+
+fn fold(crease: Crease, lift_hinge: f32) -> f32 {
+    let mut app = paper_app();
     let mut cloth = sheet();
     for j in 0..15 {
         cloth.particles.positions[j * 15 + 7].y += lift_hinge;
@@ -250,13 +255,7 @@ fn hinge_height(x: &[Vec3]) -> f32 {
 /// an extra `hinge_kick` m/s upwards while the flaps' outer edges get it
 /// downwards. Returns the hinge heights seen after the first second.
 fn kicked(side: FoldSide, kick: f32, hinge_kick: f32) -> Vec<f32> {
-    let mut app = app();
-    let mut settings = ClothSettings {
-        gravity: Vec3::ZERO,
-        ..default()
-    };
-    settings.choi_ko.bending_rigidity = 1e-4;
-    app.insert_resource(ClothDefaults(settings));
+    let mut app = paper_app();
     let mut cloth = sheet();
     for j in 0..15 {
         cloth.particles.positions[j * 15 + 7].y -= 0.01;
@@ -325,13 +324,7 @@ fn a_free_fold_can_flip_as_in_the_seed() {
 
 #[test]
 fn a_diagonal_crease_folds_along_its_own_line() {
-    let mut app = app();
-    let mut settings = ClothSettings {
-        gravity: Vec3::ZERO,
-        ..default()
-    };
-    settings.choi_ko.bending_rigidity = 1e-4;
-    app.insert_resource(ClothDefaults(settings));
+    let mut app = paper_app();
     let crease =
         Crease::new(Vec2::new(-0.05, -0.05), Vec2::new(1.05, 1.05)).with_side(FoldSide::Mountain);
     let e = app
