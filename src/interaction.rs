@@ -171,6 +171,10 @@ pub(crate) fn apply_grabs(
 ) {
     let dt = time.timestep().as_secs_f32();
     for (mut grabs, mut particles, mut forces) in &mut cloths {
+        // Nothing held or let go: no work, and nothing marked changed.
+        if grabs.grabs.is_empty() && grabs.released.is_empty() {
+            continue;
+        }
         let n = particles.len();
         let ClothGrabs { grabs, released } = &mut *grabs;
         for (p, was_pinned) in released.drain(..) {

@@ -414,6 +414,14 @@ fn seed_pass(
     mut cloths: Query<(&Cloth, &mut ClothParticles, Option<&ClothCollision>)>,
     mut stats: ResMut<ClothCollisionStats>,
 ) {
+    // Only mesh colliders take part: with none in the scene, no work.
+    if !scene
+        .colliders
+        .iter()
+        .any(|c| matches!(c.shape, ColliderShape::Mesh(_)))
+    {
+        return;
+    }
     let dt = time.timestep().as_secs_f32();
     let mut counts = Counts::default();
     for (cloth, mut particles, settings) in &mut cloths {
