@@ -8,12 +8,15 @@ use std::time::Duration;
 use bevy::asset::AssetPlugin;
 use bevy::mesh::Mesh;
 use bevy::prelude::*;
+use bevy::tasks::{ComputeTaskPool, TaskPool};
 use bevy::time::TimeUpdateStrategy;
 use bevy::transform::TransformPlugin;
 use bevy_cloth::accuracy::scene;
 use bevy_cloth::integrate::StepBuffers;
+use bevy_cloth::model::bands::internal_forces_banded;
 use bevy_cloth::model::internal_forces;
 use bevy_cloth::prelude::*;
+use bevy_cloth::settings::Parallelism;
 use bevy_cloth::step::step_cloth;
 use criterion::{BatchSize, BenchmarkId, Criterion, criterion_group, criterion_main};
 
@@ -39,6 +42,7 @@ fn settled(n: u32) -> ClothBundle {
 }
 
 fn forces(c: &mut Criterion) {
+    let pool = ComputeTaskPool::get_or_init(TaskPool::default);
     let mut group = c.benchmark_group("forces");
     for n in SIZES {
         let cloth = settled(n);
@@ -59,6 +63,23 @@ fn forces(c: &mut Criterion) {
                 })
             });
         }
+        // The same Choi–Ko forces in parallel bands on the compute pool.
+        let settings = ClothSettings::default();
+        let name = format!("ChoiKo_banded_{}threads", pool.thread_num());
+        group.bench_function(BenchmarkId::new(name, n), |b| {
+            b.iter(|| {
+                f.fill(Vec3::ZERO);
+                let banded = internal_forces_banded(
+                    &settings,
+                    &cloth.connections,
+                    &cloth.particles.positions,
+                    &cloth.particles.velocities,
+                    &mut f,
+                );
+                assert!(banded);
+                black_box(&f);
+            })
+        });
     }
     group.finish();
 }
@@ -148,6 +169,63 @@ fn game_frame(c: &mut Criterion) {
     group.finish();
 }
 
+/// A headless app stepping `cloths` at 60 Hz with `settings` as defaults.
+fn headless(settings: ClothSettings, cloths: impl IntoIterator<Item = ClothBundle>) -> App {
+    let mut app = App::new();
+    app.add_plugins((
+        MinimalPlugins,
+        TransformPlugin,
+        AssetPlugin::default(),
+        ClothPlugin::default(),
+    ))
+    .init_asset::<Mesh>()
+    .insert_resource(Time::<Fixed>::from_hz(60.0))
+    .insert_resource(TimeUpdateStrategy::FixedTimesteps(1))
+    .insert_resource(ClothDefaults(settings));
+    for cloth in cloths {
+        app.world_mut().spawn(cloth);
+    }
+    for _ in 0..5 {
+        app.update();
+    }
+    app
+}
+
+/// Scale: one 1/60 s frame of 100 cloths of 16×16 (spread over the task
+/// pool by the step system) and of one 256×256 cloth (parallel force bands).
+fn scale(c: &mut Criterion) {
+    let mut group = c.benchmark_group("scale");
+    group
+        .measurement_time(Duration::from_secs(5))
+        .sample_size(10);
+    let many = || {
+        (0..100).map(|k| {
+            let mut cloth = scene(16);
+            let offset = Vec3::new((k % 10) as f32 * 1.5, 0.0, (k / 10) as f32 * 1.5);
+            for x in &mut cloth.particles.positions {
+                *x += offset;
+            }
+            cloth
+        })
+    };
+    for (integrator, substeps) in [(Integrator::SymplecticEuler, 40), (Integrator::Bdf2, 1)] {
+        let settings = ClothSettings::default().with_integrator(integrator, substeps);
+        let mut app = headless(settings, many());
+        let name = format!("100_cloths_16x16_{}", integrator.name());
+        group.bench_function(BenchmarkId::new(name, substeps), |b| {
+            b.iter(|| app.update())
+        });
+    }
+    for parallel in [Parallelism::Off, Parallelism::Auto] {
+        let mut settings = ClothSettings::default().with_integrator(Integrator::Bdf2, 1);
+        settings.parallel = parallel;
+        let mut app = headless(settings, [scene(256)]);
+        let name = format!("1_cloth_256x256_BDF2_{parallel:?}");
+        group.bench_function(BenchmarkId::new(name, 1), |b| b.iter(|| app.update()));
+    }
+    group.finish();
+}
+
 /// One 1/60 s frame of a 32×32 cloth draped on a mesh sphere of 80 and of
 /// about 10 600 triangles: the BVH keeps the cost from following the count.
 fn mesh_collider(c: &mut Criterion) {
@@ -191,5 +269,5 @@ fn mesh_collider(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, forces, steps, game_frame, mesh_collider);
+criterion_group!(benches, forces, steps, game_frame, mesh_collider, scale);
 criterion_main!(benches);

@@ -74,6 +74,17 @@ pub enum ClothError {
     /// Substeps must be between 1 and [`MAX_SUBSTEPS`](crate::settings::MAX_SUBSTEPS).
     #[error("substeps must be between 1 and 100000, got {0}")]
     InvalidSubsteps(u32),
+    /// Adaptive substeps need a safety factor in (0, 1] and a cap between 1
+    /// and [`MAX_SUBSTEPS`](crate::settings::MAX_SUBSTEPS).
+    #[error(
+        "adaptive substeps need safety in (0, 1] and max_substeps in 1..=100000, got {safety} and {max_substeps}"
+    )]
+    InvalidAdaptive {
+        /// The safety factor given.
+        safety: f32,
+        /// The substep cap given.
+        max_substeps: u32,
+    },
     /// A collider's shape or material is invalid, or its mesh unusable.
     #[error("invalid collider: {0}")]
     InvalidCollider(&'static str),

@@ -62,6 +62,11 @@ pub struct ClothConnections {
     pub crease: Vec<Link>,
     /// Fold-direction terms of creases with a chosen side.
     pub fold: Vec<FoldTriple>,
+    /// Particles per grid row, set by [`ClothConnections::grid`] (0 for
+    /// hand-made connections). The parallel force bands
+    /// ([`model::bands`](crate::model::bands)) need it; they also need each
+    /// grid family sorted by `a`, as `grid` builds them.
+    pub columns: u32,
 }
 
 /// The fold-direction term of one crossing connection (MODEL.md §9.4b):
@@ -127,7 +132,10 @@ impl ClothConnections {
     /// inside the grid (no wrap-around). `rest.len()` must be `cols·rows`.
     pub fn grid(cols: u32, rows: u32, rest: &[Vec3]) -> Self {
         debug_assert_eq!(rest.len(), (cols * rows) as usize);
-        let mut out = Self::default();
+        let mut out = Self {
+            columns: cols,
+            ..Self::default()
+        };
         let index = |i: u32, j: u32| j * cols + i;
         for j in 0..rows {
             for i in 0..cols {

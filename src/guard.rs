@@ -9,8 +9,13 @@
 //! [`GuardSettings::max_boost`] times the configured substeps. The stronger setting stays
 //! in force for that cloth (see [`ClothStats`](crate::ClothStats)), a
 //! [`ClothDiverged`] message says what happened, and a warning is logged
-//! once per cloth. If every retry trips, the cloth stays at its last good
-//! state for that step: the cloth is never lost and the app never panics.
+//! once per cloth. If every retry trips on a finite state (violent but not
+//! diverging: the recoil of an over-stretched cloth), the last attempt is
+//! kept with every speed clamped to the bound; if the last attempt was
+//! non-finite, the free particles go back to their last good positions at
+//! rest and pinned ones keep their prescribed motion. Restoring the full
+//! state would trip the same way next step and freeze the cloth. The cloth
+//! is never lost and the app never panics.
 
 use bevy::math::Vec3;
 use bevy::prelude::{Entity, Message, Reflect};
@@ -111,6 +116,25 @@ pub fn check(
         return Some(Divergence::NonFinite);
     }
     (strain > guard.max_strain).then_some(Divergence::Strain(strain))
+}
+
+/// Whether a trip is a divergence: always for non-finite values; for a
+/// strain or speed, only if it is beyond 1.5 times what the step started
+/// with. A step that starts beyond a bound (a kinematic grab can stretch a
+/// cloth past it) may stay there or relax without counting as a blow-up.
+pub fn grew(reason: Divergence, state: &GuardState, connections: &ClothConnections) -> bool {
+    match reason {
+        Divergence::NonFinite => true,
+        Divergence::Strain(s) => s > 1.5 * max_strain(connections.type1(), &state.good_x),
+        Divergence::Speed(v) => {
+            let start = state
+                .good_v
+                .iter()
+                .map(|v| v.length())
+                .fold(0.0f32, f32::max);
+            v > 1.5 * start
+        }
+    }
 }
 
 /// The last good state of a cloth and what the guard has changed.

@@ -59,6 +59,7 @@
 #![warn(missing_docs)]
 
 pub mod accuracy;
+pub mod adaptive;
 pub mod anchor;
 pub mod cloth;
 pub mod collision;
@@ -93,7 +94,7 @@ pub use crate::particles::ClothParticles;
 pub use crate::schedule::ClothSystems;
 pub use crate::settings::{
     ChoiKoParams, ClothDefaults, ClothModel, ClothSettings, ImplicitParams, Integrator,
-    LanderParams, SlackStiffness, SpringParams, Type2Jacobian,
+    LanderParams, Parallelism, SlackStiffness, SpringParams, Type2Jacobian,
 };
 pub use crate::step::{ClothForces, ClothStats};
 pub use crate::systems::check_cloth;

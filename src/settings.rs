@@ -232,6 +232,43 @@ pub struct ClothSettings {
     pub implicit: ImplicitParams,
     /// The divergence guard ([`guard`](crate::guard)).
     pub guard: crate::guard::GuardSettings,
+    /// Whether the internal forces are evaluated in parallel bands.
+    pub parallel: Parallelism,
+    /// Opt-in adaptive substeps for the explicit integrators: `None` runs
+    /// exactly [`substeps`](Self::substeps).
+    pub adaptive: Option<crate::adaptive::AdaptiveSubsteps>,
+}
+
+/// Whether a cloth's internal forces are evaluated in parallel row bands on
+/// Bevy's `ComputeTaskPool` ([`model::bands`](crate::model::bands)).
+///
+/// The banded evaluation adds forces in an order fixed by the cloth alone,
+/// so its result is bitwise the same whatever the number of threads (one,
+/// when the pool is absent or Bevy's `multi_threaded` feature is off).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Reflect)]
+pub enum Parallelism {
+    /// Always one thread, link by link.
+    Off,
+    /// Bands for cloths of at least [`Parallelism::AUTO_MIN_PARTICLES`]
+    /// particles; smaller ones are cheaper on one thread.
+    #[default]
+    Auto,
+    /// Bands for every grid cloth.
+    On,
+}
+
+impl Parallelism {
+    /// The cloth size (particles) from which [`Parallelism::Auto`] uses bands.
+    pub const AUTO_MIN_PARTICLES: usize = 4096;
+
+    /// Whether a cloth of `particles` particles is evaluated in bands.
+    pub fn banded(self, particles: usize) -> bool {
+        match self {
+            Self::Off => false,
+            Self::Auto => particles >= Self::AUTO_MIN_PARTICLES,
+            Self::On => true,
+        }
+    }
 }
 
 impl Default for ClothSettings {
@@ -246,6 +283,8 @@ impl Default for ClothSettings {
             lander: LanderParams::default(),
             implicit: ImplicitParams::default(),
             guard: crate::guard::GuardSettings::default(),
+            parallel: Parallelism::Auto,
+            adaptive: None,
         }
     }
 }
@@ -290,6 +329,14 @@ impl ClothSettings {
             || self.implicit.max_iterations == 0
         {
             return Err(ClothError::InvalidSolver);
+        }
+        if let Some(a) = self.adaptive
+            && !(a.safety > 0.0 && a.safety <= 1.0 && (1..=MAX_SUBSTEPS).contains(&a.max_substeps))
+        {
+            return Err(ClothError::InvalidAdaptive {
+                safety: a.safety,
+                max_substeps: a.max_substeps,
+            });
         }
         let ck = &self.choi_ko;
         positive("choi_ko.stiffness", ck.stiffness)?;

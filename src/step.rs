@@ -105,6 +105,8 @@ impl<F: FnMut(Substep, &[Vec3], &mut [Vec3], &mut [Vec3], &[f32])> ContactHook f
 /// `external` holds one force per particle in N, or is empty. `buffers` are
 /// resized if the particle count changed (the only allocation). Settings are
 /// assumed valid ([`ClothSettings::validate`]); the ECS layer checks them.
+/// Returns the substeps run: `settings.substeps`, or more with
+/// [`ClothSettings::adaptive`](crate::adaptive::AdaptiveSubsteps).
 pub fn step_cloth(
     particles: &mut ClothParticles,
     connections: &ClothConnections,
@@ -112,7 +114,7 @@ pub fn step_cloth(
     external: &[Vec3],
     buffers: &mut StepBuffers,
     dt: f32,
-) {
+) -> u32 {
     step_cloth_with(
         particles,
         connections,
@@ -121,7 +123,7 @@ pub fn step_cloth(
         buffers,
         dt,
         None::<fn(_, &_, &mut _, &mut _, &_)>,
-    );
+    )
 }
 
 /// [`step_cloth`] with a contact hook called after every substep, so that
@@ -135,13 +137,19 @@ pub fn step_cloth_with(
     buffers: &mut StepBuffers,
     dt: f32,
     mut contacts: Option<impl ContactHook>,
-) {
+) -> u32 {
     let n = particles.len();
     buffers.resize(n);
     if contacts.is_some() {
         buffers.substep_start.resize(n, Vec3::ZERO);
     }
-    let substeps = settings.substeps.max(1);
+    let substeps = crate::adaptive::substeps_for(
+        settings,
+        connections,
+        &particles.inverse_masses,
+        dt,
+        &mut buffers.mode_sums,
+    );
     let h = dt / substeps as f32;
     let ClothParticles {
         positions,
@@ -182,4 +190,5 @@ pub fn step_cloth_with(
             );
         }
     }
+    substeps
 }

@@ -20,7 +20,7 @@ use crate::collision::{
     ClothCollision, ClothCollisionStats, ClothSelfCollision, ColliderScene, SelfCollisionScratch,
     bounds, resolve_substep,
 };
-use crate::guard::{ClothDiverged, Fallback, check};
+use crate::guard::{ClothDiverged, Divergence, Fallback, check, grew};
 use crate::settings::MAX_SUBSTEPS;
 use crate::step::{ClothForces, ClothScratch, ClothStats, Substep, step_cloth_with};
 
@@ -150,7 +150,7 @@ pub(crate) fn step_cloths(
         let mut tripped = None;
         let mut hook = hook;
         for attempt in 0..=guard.retries {
-            step_cloth_with(
+            let used = step_cloth_with(
                 &mut item.particles,
                 item.connections,
                 &effective,
@@ -159,10 +159,12 @@ pub(crate) fn step_cloths(
                 dt,
                 hook.as_mut(),
             );
+            effective.substeps = used;
             let Some(reason) = guard
                 .enabled
                 .then(|| check(&item.particles, item.connections, &guard))
                 .flatten()
+                .filter(|&r| grew(r, &scratch.guard, item.connections))
             else {
                 if let Some(reason) = tripped {
                     scratch.guard.pending =
@@ -170,26 +172,67 @@ pub(crate) fn step_cloths(
                 }
                 break;
             };
-            tripped.get_or_insert(reason);
+            let first = *tripped.get_or_insert(reason);
+            if attempt == guard.retries && reason != Divergence::NonFinite {
+                // Every retry tripped on a finite state: violent motion (the
+                // recoil of a cloth a grab over-stretched, say) rather than a
+                // blow-up. Keep it with every speed clamped to the bound:
+                // restoring would trip the same way next step and freeze the
+                // cloth.
+                let max_speed = guard.max_speed;
+                for v in &mut item.particles.velocities {
+                    *v = v.clamp_length_max(max_speed);
+                }
+                scratch.guard.pending =
+                    Some((first, effective.substeps, effective.integrator, false));
+                break;
+            }
+            if attempt == guard.retries {
+                // Every retry was non-finite. Free particles go back to the
+                // last good state at rest, so the next step cannot blow up
+                // the same way; pinned ones keep their prescribed motion if
+                // finite.
+                let p = &mut *item.particles;
+                let good = scratch.guard.good_x.iter().zip(&scratch.guard.good_v);
+                for (((x, v), &w), (gx, gv)) in p
+                    .positions
+                    .iter_mut()
+                    .zip(&mut p.velocities)
+                    .zip(&p.inverse_masses)
+                    .zip(good)
+                {
+                    if w > 0.0 {
+                        (*x, *v) = (*gx, Vec3::ZERO);
+                    } else if !(x.is_finite() && v.is_finite()) {
+                        (*x, *v) = (*gx, *gv);
+                    }
+                }
+                scratch.buffers.implicit.reset_history();
+                scratch.guard.pending =
+                    Some((first, effective.substeps, effective.integrator, false));
+                break;
+            }
             item.particles.positions.clone_from(&scratch.guard.good_x);
             item.particles.velocities.clone_from(&scratch.guard.good_v);
             scratch.buffers.implicit.reset_history();
             match guard.fallback {
                 Fallback::Integrator(i) if effective.integrator != i => effective.integrator = i,
                 _ => {
-                    let cap = settings
-                        .substeps
+                    // The substeps before any boost: configured, or adaptive.
+                    let base = crate::adaptive::substeps_for(
+                        settings,
+                        item.connections,
+                        &item.particles.inverse_masses,
+                        dt,
+                        &mut scratch.buffers.mode_sums,
+                    );
+                    let cap = base
                         .saturating_mul(guard.max_boost.max(1))
                         .min(MAX_SUBSTEPS);
                     effective.substeps = (effective.substeps * 2).min(cap);
                 }
             }
             scratch.guard.boost = Some((effective.substeps, effective.integrator));
-            if attempt == guard.retries {
-                let first = tripped.unwrap_or(reason);
-                scratch.guard.pending =
-                    Some((first, effective.substeps, effective.integrator, false));
-            }
         }
         item.stats.substeps = effective.substeps;
         item.stats.integrator = effective.integrator;

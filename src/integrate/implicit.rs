@@ -42,6 +42,9 @@ pub struct ImplicitBuffers {
     expected_x: Vec<Vec3>,
     /// Step length of the stored BDF2 history, if there is one.
     history: Option<f32>,
+    /// Whether `dv` holds the last step's solution, the next solve's
+    /// starting guess (a warm start).
+    warm: bool,
     /// Conjugate-gradient iterations of the last solve.
     pub last_iterations: u32,
     /// `√(rᵀP⁻¹r / bᵀP⁻¹b)` at the end of the last solve (dimensionless).
@@ -52,6 +55,7 @@ impl ImplicitBuffers {
     fn resize(&mut self, n: usize) {
         if self.force.len() != n {
             self.history = None;
+            self.warm = false;
         }
         for buf in [
             &mut self.force,
@@ -74,6 +78,7 @@ impl ImplicitBuffers {
     /// Forgets the BDF2 history, so the next BDF2 step is backward Euler.
     pub fn reset_history(&mut self) {
         self.history = None;
+        self.warm = false;
     }
 }
 
@@ -154,7 +159,9 @@ fn dot(a: &[Vec3], b: &[Vec3]) -> f64 {
 }
 
 /// Solves `A Δv = b` (b already filtered) into `buffers.dv` by PCG with the
-/// block-Jacobi preconditioner `buffers.precond`, starting from `Δv = 0`.
+/// block-Jacobi preconditioner `buffers.precond`. It starts from the last
+/// step's `Δv` when there is one and it is closer than `Δv = 0` (a warm
+/// start), and stops once `rᵀP r ≤ ε² bᵀP b` either way.
 /// Returns (iterations, relative residual).
 fn pcg(op: &Operator, params: &ImplicitParams, buffers: &mut ImplicitBuffers) -> (u32, f32) {
     let ImplicitBuffers {
@@ -165,19 +172,44 @@ fn pcg(op: &Operator, params: &ImplicitParams, buffers: &mut ImplicitBuffers) ->
         d,
         q,
         y,
+        warm,
         ..
     } = buffers;
-    dv.fill(Vec3::ZERO);
-    r.copy_from_slice(rhs);
-    for ((yi, pi), ri) in y.iter_mut().zip(precond.iter()).zip(r.iter()) {
-        *yi = *pi * *ri;
+    for ((yi, pi), bi) in y.iter_mut().zip(precond.iter()).zip(rhs.iter()) {
+        *yi = *pi * *bi;
     }
-    let delta0 = dot(r, y);
+    let delta0 = dot(rhs, y);
     if !(delta0 > 0.0 && delta0.is_finite()) {
+        dv.fill(Vec3::ZERO);
+        *warm = false;
         return (0, 0.0);
     }
+    let mut delta = f64::INFINITY;
+    if *warm {
+        filter(op.inverse_masses, dv);
+        op.apply(dv, q);
+        for (((ri, bi), qi), (yi, pi)) in r
+            .iter_mut()
+            .zip(rhs.iter())
+            .zip(q.iter())
+            .zip(y.iter_mut().zip(precond.iter()))
+        {
+            *ri = *bi - *qi;
+            *yi = *pi * *ri;
+        }
+        delta = dot(r, y);
+    }
+    if !(delta < delta0) {
+        // Cold start: Δv = 0, r = b.
+        dv.fill(Vec3::ZERO);
+        r.copy_from_slice(rhs);
+        for ((yi, pi), ri) in y.iter_mut().zip(precond.iter()).zip(r.iter()) {
+            *yi = *pi * *ri;
+        }
+        delta = delta0;
+    }
+    *warm = true;
     d.copy_from_slice(y);
-    let mut delta = delta0;
     let tol2 = (params.tolerance as f64).powi(2);
     let mut iterations = 0;
     while iterations < params.max_iterations && delta > tol2 * delta0 {
@@ -521,6 +553,30 @@ mod tests {
         // Pins: Δv exactly zero.
         assert_eq!(buffers.dv[0], Vec3::ZERO);
         assert_eq!(buffers.dv[3], Vec3::ZERO);
+
+        // Warm start: the same system again starts at its solution and
+        // needs (almost) no iterations; a slightly changed one needs fewer
+        // than from zero and meets the same tolerance.
+        let cold = buffers.last_iterations;
+        let first = buffers.dv.clone();
+        solve(&dynamics, h, &mut buffers);
+        assert!(buffers.last_iterations <= 1, "{}", buffers.last_iterations);
+        for r in &mut buffers.rhs {
+            *r *= 1.01;
+        }
+        solve(&dynamics, h, &mut buffers);
+        let warm = buffers.last_iterations;
+        assert!(warm < cold, "warm {warm} vs cold {cold} iterations");
+        assert!(buffers.last_residual <= 1e-6);
+        let scaled = first
+            .iter()
+            .zip(&buffers.dv)
+            .map(|(a, b)| (*a * 1.01 - *b).length());
+        assert!(scaled.fold(0.0, f32::max) < 1e-3 * norm as f32);
+        // A forgotten history starts cold again.
+        buffers.reset_history();
+        solve(&dynamics, h, &mut buffers);
+        assert_eq!(buffers.last_iterations, cold);
     }
 
     #[test]

@@ -50,6 +50,9 @@ pub struct StepBuffers {
     pub substep_start: Vec<Vec3>,
     /// Buffers of the implicit integrators (sized on first use).
     pub implicit: ImplicitBuffers,
+    /// Per-particle sums of the adaptive substep estimate
+    /// ([`adaptive`](crate::adaptive)), filled only when it is on.
+    pub mode_sums: Vec<[f32; 2]>,
 }
 
 impl StepBuffers {

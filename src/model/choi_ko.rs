@@ -15,6 +15,7 @@ use std::sync::LazyLock;
 
 use bevy::math::Vec3;
 
+use super::kernel::{self, Law, Target};
 use crate::connections::Link;
 
 /// Connections shorter than this (m) are skipped: their direction is undefined.
@@ -140,24 +141,8 @@ pub fn type2_magnitude(table: &BucklingTable, len: f32, rest: f32, kb: f32, cb: 
 /// MODEL.md §4, applied only while the link is taut (a slack Type 1 link
 /// does not exist for the cloth).
 pub fn type1_forces(links: &[Link], k: f32, kd: f32, x: &[Vec3], v: &[Vec3], f: &mut [Vec3]) {
-    for l in links {
-        let (a, b) = (l.a as usize, l.b as usize);
-        let d = x[b] - x[a];
-        // Slack links (most of a hanging cloth's) leave before the sqrt.
-        let len2 = d.length_squared();
-        if len2 < l.rest_length * l.rest_length || len2 < MIN_LENGTH * MIN_LENGTH {
-            continue;
-        }
-        let len = len2.sqrt();
-        let inv = 1.0 / len;
-        let mut mag = k * (len - l.rest_length);
-        if kd != 0.0 {
-            mag += kd * (v[b] - v[a]).dot(d) * inv;
-        }
-        let force = d * (mag * inv);
-        f[a] += force;
-        f[b] -= force;
-    }
+    let mut out = Target { f, base: 0 };
+    kernel::pair_forces(&[(links, Law::Tension { k, kd })], x, v, &mut out);
 }
 
 /// Adds the Type 2 (buckling) forces of `links` to `f` (N); see
@@ -170,20 +155,9 @@ pub fn type2_forces(
     x: &[Vec3],
     f: &mut [Vec3],
 ) {
-    for l in links {
-        let (a, b) = (l.a as usize, l.b as usize);
-        let d = x[b] - x[a];
-        // Links at or beyond rest length (most of them) leave before the sqrt.
-        let len2 = d.length_squared();
-        if len2 >= l.rest_length * l.rest_length || len2 < MIN_LENGTH * MIN_LENGTH {
-            continue;
-        }
-        let len = len2.sqrt();
-        let (mag, _) = type2_magnitude(table, len, l.rest_length, kb, cb);
-        let force = (mag / len) * d;
-        f[a] += force;
-        f[b] -= force;
-    }
+    let mut out = Target { f, base: 0 };
+    let law = Law::Buckling { table, kb, cb };
+    kernel::pair_forces(&[(links, law)], x, &[], &mut out);
 }
 
 #[cfg(test)]

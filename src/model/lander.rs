@@ -12,25 +12,14 @@
 use bevy::math::Vec3;
 
 use crate::connections::Link;
-use crate::model::choi_ko::MIN_LENGTH;
+use crate::model::kernel::{self, Law, Target};
 
 /// Adds the forces of two-sided damped springs to `f` (N).
 ///
 /// `ks` in N/m, `kd` in N·s/m. Links shorter than 10⁻⁹ m are skipped.
 pub fn spring_forces(links: &[Link], ks: f32, kd: f32, x: &[Vec3], v: &[Vec3], f: &mut [Vec3]) {
-    for l in links {
-        let (a, b) = (l.a as usize, l.b as usize);
-        let d = x[b] - x[a];
-        let len = d.length();
-        if len < MIN_LENGTH {
-            continue;
-        }
-        let u = d / len;
-        let mag = ks * (len - l.rest_length) + kd * (v[b] - v[a]).dot(u);
-        let force = mag * u;
-        f[a] += force;
-        f[b] -= force;
-    }
+    let mut out = Target { f, base: 0 };
+    kernel::pair_forces(&[(links, Law::Spring { ks, kd })], x, v, &mut out);
 }
 
 #[cfg(test)]

@@ -5,18 +5,22 @@
 //! - [`Dynamics::accelerations`]: seed eq. 5, `a = M⁻¹F + g − c·v`, with
 //!   pinned particles (inverse mass 0) held at zero acceleration.
 
+pub mod bands;
 pub mod choi_ko;
 pub mod jacobian;
+pub mod kernel;
 pub mod lander;
 
 use bevy::math::Vec3;
 
-use crate::connections::ClothConnections;
-use crate::settings::{ClothModel, ClothSettings};
+use crate::connections::{ClothConnections, Link};
+use crate::settings::{ClothModel, ClothSettings, SpringParams};
+use kernel::{Law, Target};
 
 pub use choi_ko::{BUCKLING_TABLE, BucklingTable};
 
-/// Adds the internal forces (N) of `settings.model` over `connections` to `f`.
+/// Adds the internal forces (N) of `settings.model` over `connections` to `f`,
+/// on one thread, family by family.
 ///
 /// Internal forces are sums of equal and opposite pair forces, so they add
 /// up to zero over the cloth.
@@ -27,33 +31,82 @@ pub fn internal_forces(
     v: &[Vec3],
     f: &mut [Vec3],
 ) {
+    let families = [
+        &connections.structural[..],
+        &connections.shear,
+        &connections.bend,
+        &connections.bend_diagonal,
+    ];
+    let mut out = Target { f, base: 0 };
+    grid_forces(settings, families, x, v, &mut out);
+    extra_forces(settings, connections, x, v, out.f);
+}
+
+/// The forces of the four grid families (structural, shear, bend, bend
+/// diagonal) into `out`; `false` if a link fell outside its window.
+fn grid_forces(
+    settings: &ClothSettings,
+    [structural, shear, bend, bend_diagonal]: [&[Link]; 4],
+    x: &[Vec3],
+    v: &[Vec3],
+    out: &mut Target,
+) -> bool {
     match settings.model {
         ClothModel::ChoiKo => {
             let p = &settings.choi_ko;
-            for links in [&connections.structural, &connections.shear] {
-                choi_ko::type1_forces(links, p.stiffness, p.pair_damping, x, v, f);
-            }
-            let table = &*BUCKLING_TABLE;
-            for links in [&connections.bend, &connections.bend_diagonal] {
-                choi_ko::type2_forces(table, links, p.bending_rigidity, p.buckling_slope, x, f);
-            }
-            // Crease springs are Type 1 links of rest length L' (MODEL.md §9.1).
-            choi_ko::type1_forces(&connections.crease, p.stiffness, p.pair_damping, x, v, f);
+            let tension = Law::Tension {
+                k: p.stiffness,
+                kd: p.pair_damping,
+            };
+            let buckling = Law::Buckling {
+                table: &BUCKLING_TABLE,
+                kb: p.bending_rigidity,
+                cb: p.buckling_slope,
+            };
+            let families = [
+                (structural, tension),
+                (shear, tension),
+                (bend, buckling),
+                (bend_diagonal, buckling),
+            ];
+            kernel::pair_forces(&families, x, v, out)
         }
         ClothModel::Lander => {
             let p = &settings.lander;
-            for (links, s) in [
-                (&connections.structural, p.structural),
-                (&connections.shear, p.shear),
-                (&connections.bend, p.bend),
-            ] {
-                lander::spring_forces(links, s.stiffness, s.damping, x, v, f);
-            }
-            let s = p.structural;
-            choi_ko::type1_forces(&connections.crease, s.stiffness, s.damping, x, v, f);
+            let spring = |s: SpringParams| Law::Spring {
+                ks: s.stiffness,
+                kd: s.damping,
+            };
+            let families = [
+                (structural, spring(p.structural)),
+                (shear, spring(p.shear)),
+                (bend, spring(p.bend)),
+            ];
+            kernel::pair_forces(&families, x, v, out)
         }
     }
-    crate::connections::fold_forces(&connections.fold, x, f);
+}
+
+/// The forces of crease springs (Type 1 links of rest length L', MODEL.md
+/// §9.1) and fold-direction terms, which may join any two particles.
+fn extra_forces(
+    settings: &ClothSettings,
+    connections: &ClothConnections,
+    x: &[Vec3],
+    v: &[Vec3],
+    f: &mut [Vec3],
+) {
+    let (k, kd) = match settings.model {
+        ClothModel::ChoiKo => (settings.choi_ko.stiffness, settings.choi_ko.pair_damping),
+        ClothModel::Lander => {
+            let s = settings.lander.structural;
+            (s.stiffness, s.damping)
+        }
+    };
+    let mut out = Target { f, base: 0 };
+    let tension = Law::Tension { k, kd };
+    kernel::pair_forces(&[(&connections.crease, tension)], x, v, &mut out);
+    crate::connections::fold_forces(&connections.fold, x, out.f);
 }
 
 /// Everything the acceleration of a cloth depends on besides its state.
@@ -71,16 +124,28 @@ pub struct Dynamics<'a> {
 }
 
 impl Dynamics<'_> {
-    /// Writes the accelerations (m/s²) at state `(x, v)` into `out`:
-    /// `a_i = w_i (F_int + F_ext)_i + g − c·v_i` for free particles, 0 for
-    /// pinned ones (`w_i = 0`), so a pin keeps whatever velocity it was given.
-    pub fn accelerations(&self, x: &[Vec3], v: &[Vec3], out: &mut [Vec3]) {
+    /// Overwrites `out` with the external forces (N), or zeros if there are none.
+    fn external_forces(&self, out: &mut [Vec3]) {
         if self.external.len() == out.len() {
             out.copy_from_slice(self.external);
         } else {
             out.fill(Vec3::ZERO);
         }
-        internal_forces(self.settings, self.connections, x, v, out);
+    }
+
+    /// Writes the accelerations (m/s²) at state `(x, v)` into `out`:
+    /// `a_i = w_i (F_int + F_ext)_i + g − c·v_i` for free particles, 0 for
+    /// pinned ones (`w_i = 0`), so a pin keeps whatever velocity it was given.
+    pub fn accelerations(&self, x: &[Vec3], v: &[Vec3], out: &mut [Vec3]) {
+        self.external_forces(out);
+        let banded = self.settings.parallel.banded(out.len());
+        if !(banded && bands::internal_forces_banded(self.settings, self.connections, x, v, out)) {
+            if banded {
+                // Not a layout the bands can split: start over on one thread.
+                self.external_forces(out);
+            }
+            internal_forces(self.settings, self.connections, x, v, out);
+        }
         let g = self.settings.gravity;
         let c = self.settings.damping;
         for ((a, &w), &vi) in out.iter_mut().zip(self.inverse_masses).zip(v) {
