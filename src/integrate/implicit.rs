@@ -199,7 +199,7 @@ fn pcg(op: &Operator, params: &ImplicitParams, buffers: &mut ImplicitBuffers) ->
         }
         delta = dot(r, y);
     }
-    if !(delta < delta0) {
+    if delta.is_nan() || delta >= delta0 {
         // Cold start: Δv = 0, r = b.
         dv.fill(Vec3::ZERO);
         r.copy_from_slice(rhs);
