@@ -118,23 +118,33 @@ pub fn check(
     (strain > guard.max_strain).then_some(Divergence::Strain(strain))
 }
 
-/// Whether a trip is a divergence: always for non-finite values; for a
-/// strain or speed, only if it is beyond 1.5 times what the step started
-/// with. A step that starts beyond a bound (a kinematic grab can stretch a
-/// cloth past it) may stay there or relax without counting as a blow-up.
-pub fn grew(reason: Divergence, state: &GuardState, connections: &ClothConnections) -> bool {
-    match reason {
-        Divergence::NonFinite => true,
-        Divergence::Strain(s) => s > 1.5 * max_strain(connections.type1(), &state.good_x),
+/// Whether a trip from [`check`] is a divergence: always for non-finite
+/// values and for a step that started within the bounds. A step that
+/// started beyond a bound (a kinematic grab can stretch a cloth past it, and
+/// its recoil is fast) trips only if the strain or speed grew past 1.5
+/// times its start, so the cloth may stay there or relax.
+pub fn grew(
+    reason: Divergence,
+    state: &GuardState,
+    connections: &ClothConnections,
+    guard: &GuardSettings,
+) -> bool {
+    let (value, start, bound) = match reason {
+        Divergence::NonFinite => return true,
+        Divergence::Strain(s) => {
+            let start = max_strain(connections.type1(), &state.good_x);
+            (s, start, guard.max_strain)
+        }
         Divergence::Speed(v) => {
             let start = state
                 .good_v
                 .iter()
                 .map(|v| v.length())
                 .fold(0.0f32, f32::max);
-            v > 1.5 * start
+            (v, start, guard.max_speed)
         }
-    }
+    };
+    start <= bound || value > 1.5 * start
 }
 
 /// The last good state of a cloth and what the guard has changed.
@@ -147,4 +157,40 @@ pub struct GuardState {
     /// A divergence to report at the end of the step.
     pub(crate) pending: Option<(Divergence, u32, Integrator, bool)>,
     pub(crate) warned: bool,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::connections::Link;
+
+    #[test]
+    fn a_trip_counts_unless_the_step_started_beyond_the_bound_and_did_not_grow() {
+        let mut connections = ClothConnections::default();
+        connections.structural.push(Link {
+            a: 0,
+            b: 1,
+            rest_length: 1.0,
+        });
+        let guard = GuardSettings::default();
+        let state = |len: f32, speed: f32| GuardState {
+            good_x: vec![Vec3::ZERO, Vec3::X * len],
+            good_v: vec![Vec3::ZERO, Vec3::Y * speed],
+            ..GuardState::default()
+        };
+        let grew = |r, s: &GuardState| grew(r, s, &connections, &guard);
+        // Started within the bounds (strain 10 %, 1 m/s): every trip counts.
+        let calm = state(1.1, 1.0);
+        assert!(grew(Divergence::Strain(3.1), &calm));
+        assert!(grew(Divergence::Speed(201.0), &calm));
+        assert!(grew(Divergence::NonFinite, &calm));
+        // Started over-stretched (strain 4) and fast (300 m/s): staying or
+        // relaxing is not a divergence, growing 1.5× is.
+        let wild = state(5.0, 300.0);
+        assert!(!grew(Divergence::Strain(4.0), &wild));
+        assert!(grew(Divergence::Strain(6.5), &wild));
+        assert!(!grew(Divergence::Speed(350.0), &wild));
+        assert!(grew(Divergence::Speed(460.0), &wild));
+        assert!(grew(Divergence::NonFinite, &wild));
+    }
 }

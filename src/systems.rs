@@ -164,7 +164,7 @@ pub(crate) fn step_cloths(
                 .enabled
                 .then(|| check(&item.particles, item.connections, &guard))
                 .flatten()
-                .filter(|&r| grew(r, &scratch.guard, item.connections))
+                .filter(|&r| grew(r, &scratch.guard, item.connections, &guard))
             else {
                 if let Some(reason) = tripped {
                     scratch.guard.pending =

@@ -200,6 +200,31 @@ fn stiffness_x100_at_runtime() {
 }
 
 #[test]
+fn particles_100_times_lighter_at_runtime() {
+    // The same ω_max ×10 as stiffness ×100, through the masses instead.
+    each_integrator(0.1, |i| {
+        let (mut app, e) = spawn(hanging(GRID), safe(i));
+        run(&mut app, e, 0.2, "lighten: before");
+        {
+            let mut p = app.world_mut().get_mut::<ClothParticles>(e).unwrap();
+            let p = &mut *p;
+            for (m, w) in p.masses.iter_mut().zip(&mut p.inverse_masses) {
+                *m /= 100.0;
+                if *w > 0.0 {
+                    *w = 1.0 / *m;
+                }
+            }
+        }
+        run(&mut app, e, 2.0, "lighten: after");
+        let stats = app.world().get::<ClothStats>(e).unwrap();
+        if !i.is_implicit() {
+            assert!(stats.substeps >= 200, "{i:?}: {} substeps", stats.substeps);
+        }
+        (app, e, format!("mass ÷100, {i:?}"))
+    });
+}
+
+#[test]
 fn stiffness_x100_without_adaptive_substeps_blows_up() {
     // Symplectic Euler at 40 substeps is stable for cotton (the default)...
     let s = ClothSettings {
