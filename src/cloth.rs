@@ -589,6 +589,19 @@ mod tests {
             ClothBuilder::new(3, 3).build_with(bad).unwrap_err(),
             InvalidDamping { .. }
         ));
+        for (safety, max_substeps) in [(0.0, 10), (f32::NAN, 10), (1.5, 10), (0.5, 0)] {
+            let bad = ClothSettings {
+                adaptive: Some(crate::adaptive::AdaptiveSubsteps {
+                    safety,
+                    max_substeps,
+                }),
+                ..Default::default()
+            };
+            assert!(matches!(
+                ClothBuilder::new(3, 3).build_with(bad).unwrap_err(),
+                InvalidAdaptive { .. }
+            ));
+        }
     }
 
     #[test]
