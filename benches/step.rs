@@ -138,19 +138,7 @@ fn game_frame(c: &mut Criterion) {
         (Integrator::Bdf2, 1),
         (Integrator::SymplecticEuler, 220),
     ] {
-        let mut app = App::new();
-        app.add_plugins((
-            MinimalPlugins,
-            TransformPlugin,
-            AssetPlugin::default(),
-            ClothPlugin::default(),
-        ))
-        .init_asset::<Mesh>()
-        .insert_resource(Time::<Fixed>::from_hz(60.0))
-        .insert_resource(TimeUpdateStrategy::FixedTimesteps(1))
-        .insert_resource(ClothDefaults(
-            ClothSettings::default().with_integrator(integrator, substeps),
-        ));
+        let mut app = headless(ClothSettings::default().with_integrator(integrator, substeps));
         app.world_mut().spawn((
             ClothCollider::sphere(0.3),
             Transform::from_xyz(0.0, 1.0, 0.0),
@@ -172,8 +160,8 @@ fn game_frame(c: &mut Criterion) {
     group.finish();
 }
 
-/// A headless app stepping `cloths` at 60 Hz with `settings` as defaults.
-fn headless(settings: ClothSettings, cloths: impl IntoIterator<Item = ClothBundle>) -> App {
+/// A headless app with meshes that steps at 60 Hz with `settings` as defaults.
+fn headless(settings: ClothSettings) -> App {
     let mut app = App::new();
     app.add_plugins((
         MinimalPlugins,
@@ -185,6 +173,12 @@ fn headless(settings: ClothSettings, cloths: impl IntoIterator<Item = ClothBundl
     .insert_resource(Time::<Fixed>::from_hz(60.0))
     .insert_resource(TimeUpdateStrategy::FixedTimesteps(1))
     .insert_resource(ClothDefaults(settings));
+    app
+}
+
+/// [`headless`] with `cloths` spawned and five frames run.
+fn settled_app(settings: ClothSettings, cloths: impl IntoIterator<Item = ClothBundle>) -> App {
+    let mut app = headless(settings);
     for cloth in cloths {
         app.world_mut().spawn(cloth);
     }
@@ -213,7 +207,7 @@ fn scale(c: &mut Criterion) {
     };
     for (integrator, substeps) in [(Integrator::SymplecticEuler, 40), (Integrator::Bdf2, 1)] {
         let settings = ClothSettings::default().with_integrator(integrator, substeps);
-        let mut app = headless(settings, many());
+        let mut app = settled_app(settings, many());
         let name = format!("100_cloths_16x16_{}", integrator.name());
         group.bench_function(BenchmarkId::new(name, substeps), |b| {
             b.iter(|| app.update())
@@ -222,7 +216,7 @@ fn scale(c: &mut Criterion) {
     for parallel in [Parallelism::Off, Parallelism::Auto] {
         let mut settings = ClothSettings::default().with_integrator(Integrator::Bdf2, 1);
         settings.parallel = parallel;
-        let mut app = headless(settings, [scene(256)]);
+        let mut app = settled_app(settings, [scene(256)]);
         let name = format!("1_cloth_256x256_BDF2_{parallel:?}");
         group.bench_function(BenchmarkId::new(name, 1), |b| b.iter(|| app.update()));
     }

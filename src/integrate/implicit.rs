@@ -175,36 +175,36 @@ fn pcg(op: &Operator, params: &ImplicitParams, buffers: &mut ImplicitBuffers) ->
         warm,
         ..
     } = buffers;
-    for ((yi, pi), bi) in y.iter_mut().zip(precond.iter()).zip(rhs.iter()) {
-        *yi = *pi * *bi;
-    }
+    // y = P r for the block-Jacobi preconditioner P.
+    let precondition = |y: &mut [Vec3], r: &[Vec3]| {
+        for ((yi, pi), ri) in y.iter_mut().zip(precond.iter()).zip(r) {
+            *yi = *pi * *ri;
+        }
+    };
+    precondition(y, rhs);
     let delta0 = dot(rhs, y);
     if !(delta0 > 0.0 && delta0.is_finite()) {
         dv.fill(Vec3::ZERO);
         *warm = false;
         return (0, 0.0);
     }
-    let mut delta = f64::INFINITY;
-    if *warm {
+    let tried_warm = *warm;
+    let mut delta = f64::NAN;
+    if tried_warm {
         filter(op.inverse_masses, dv);
         op.apply(dv, q);
-        for (((ri, bi), qi), (yi, pi)) in r
-            .iter_mut()
-            .zip(rhs.iter())
-            .zip(q.iter())
-            .zip(y.iter_mut().zip(precond.iter()))
-        {
+        for ((ri, bi), qi) in r.iter_mut().zip(rhs.iter()).zip(q.iter()) {
             *ri = *bi - *qi;
-            *yi = *pi * *ri;
         }
+        precondition(y, r);
         delta = dot(r, y);
     }
     if delta.is_nan() || delta >= delta0 {
-        // Cold start: Δv = 0, r = b.
+        // Cold start: Δv = 0, r = b (and y = P b, unless the warm try overwrote it).
         dv.fill(Vec3::ZERO);
         r.copy_from_slice(rhs);
-        for ((yi, pi), ri) in y.iter_mut().zip(precond.iter()).zip(r.iter()) {
-            *yi = *pi * *ri;
+        if tried_warm {
+            precondition(y, r);
         }
         delta = delta0;
     }
