@@ -16,6 +16,11 @@
 //! rest and pinned ones keep their prescribed motion. Restoring the full
 //! state would trip the same way next step and freeze the cloth. The cloth
 //! is never lost and the app never panics.
+//!
+//! With [`AdaptiveSubsteps`](crate::adaptive::AdaptiveSubsteps) on, the
+//! estimate follows the cloth's state, so the boost lasts only through the
+//! transient: it halves every [`RELAX_AFTER`] clean steps until the estimate
+//! alone decides again. Without it, the boost stays.
 
 use bevy::math::Vec3;
 use bevy::prelude::{Entity, Message, Reflect};
@@ -157,6 +162,35 @@ pub struct GuardState {
     /// A divergence to report at the end of the step.
     pub(crate) pending: Option<(Divergence, u32, Integrator, bool)>,
     pub(crate) warned: bool,
+    /// Clean steps since the boost last changed.
+    pub(crate) clean: u32,
+}
+
+/// Clean fixed steps after which an adaptive cloth's boost halves.
+pub const RELAX_AFTER: u32 = 10;
+
+impl GuardState {
+    /// One clean step of a cloth with adaptive substeps: its estimate follows
+    /// the state, so a boost is only needed through the transient that
+    /// tripped it. Every [`RELAX_AFTER`] clean steps the boosted substeps
+    /// halve; the boost ends when they reach the configured substeps
+    /// `floor` or the configured `integrator` is back.
+    pub(crate) fn relax(&mut self, integrator: Integrator, floor: u32) {
+        let Some((substeps, boosted)) = self.boost else {
+            return;
+        };
+        self.clean += 1;
+        if self.clean < RELAX_AFTER {
+            return;
+        }
+        self.clean = 0;
+        self.boost = if boosted != integrator {
+            // A fallback integrator goes back to the configured one.
+            None
+        } else {
+            (substeps / 2 > floor).then_some((substeps / 2, boosted))
+        };
+    }
 }
 
 #[cfg(test)]
@@ -192,5 +226,28 @@ mod tests {
         assert!(!grew(Divergence::Speed(350.0), &wild));
         assert!(grew(Divergence::Speed(460.0), &wild));
         assert!(grew(Divergence::NonFinite, &wild));
+    }
+
+    #[test]
+    fn an_adaptive_boost_halves_every_few_clean_steps_down_to_the_floor() {
+        let se = Integrator::SymplecticEuler;
+        let mut state = GuardState {
+            boost: Some((64, se)),
+            ..GuardState::default()
+        };
+        let mut seen = Vec::new();
+        for _ in 0..5 * RELAX_AFTER {
+            state.relax(se, 10);
+            seen.push(state.boost.map(|(s, _)| s));
+        }
+        let at = |k: u32| seen[(k * RELAX_AFTER - 1) as usize];
+        assert_eq!(seen[0], Some(64));
+        assert_eq!([at(1), at(2), at(3)], [Some(32), Some(16), None]);
+        // A fallback integrator ends at once after the clean steps.
+        state.boost = Some((40, Integrator::BackwardEuler));
+        for _ in 0..RELAX_AFTER {
+            state.relax(se, 10);
+        }
+        assert_eq!(state.boost, None);
     }
 }

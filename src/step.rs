@@ -143,13 +143,8 @@ pub fn step_cloth_with(
     if contacts.is_some() {
         buffers.substep_start.resize(n, Vec3::ZERO);
     }
-    let substeps = crate::adaptive::substeps_for(
-        settings,
-        connections,
-        &particles.inverse_masses,
-        dt,
-        &mut buffers.mode_sums,
-    );
+    let substeps =
+        crate::adaptive::substeps_for(settings, connections, particles, dt, &mut buffers.mode_sums);
     let h = dt / substeps as f32;
     let ClothParticles {
         positions,

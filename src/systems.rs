@@ -169,6 +169,8 @@ pub(crate) fn step_cloths(
                 if let Some(reason) = tripped {
                     scratch.guard.pending =
                         Some((reason, effective.substeps, effective.integrator, true));
+                } else if settings.adaptive.is_some() {
+                    scratch.guard.relax(settings.integrator, settings.substeps);
                 }
                 break;
             };
@@ -222,7 +224,7 @@ pub(crate) fn step_cloths(
                     let base = crate::adaptive::substeps_for(
                         settings,
                         item.connections,
-                        &item.particles.inverse_masses,
+                        &item.particles,
                         dt,
                         &mut scratch.buffers.mode_sums,
                     );
@@ -233,6 +235,7 @@ pub(crate) fn step_cloths(
                 }
             }
             scratch.guard.boost = Some((effective.substeps, effective.integrator));
+            scratch.guard.clean = 0;
         }
         item.stats.substeps = effective.substeps;
         item.stats.integrator = effective.integrator;

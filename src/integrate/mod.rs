@@ -52,7 +52,7 @@ pub struct StepBuffers {
     pub implicit: ImplicitBuffers,
     /// Per-particle sums of the adaptive substep estimate
     /// ([`adaptive`](crate::adaptive)), filled only when it is on.
-    pub mode_sums: Vec<[f32; 2]>,
+    pub mode_sums: Vec<crate::adaptive::ModeSums>,
 }
 
 impl StepBuffers {
