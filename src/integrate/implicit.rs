@@ -16,7 +16,7 @@
 //! are zeroed, so its `Δv` is exactly 0 and it keeps the velocity it was
 //! given (0, or an anchor's). No step allocates once the buffers are warm.
 
-use bevy::math::{Mat3, Vec3};
+use bevy::math::{Mat3A, Vec3, Vec3A};
 
 use crate::model::Dynamics;
 use crate::model::jacobian::{Block, assemble};
@@ -27,16 +27,22 @@ use crate::settings::{ImplicitParams, SlackStiffness};
 pub struct ImplicitBuffers {
     /// Jacobian blocks of the current step.
     pub blocks: Vec<Block>,
-    combined: Vec<Mat3>,
-    precond: Vec<Mat3>,
+    /// The particles of each block, and its `C = αD + βK`: what the
+    /// conjugate gradient reads, packed.
+    pairs: Vec<[u32; 2]>,
+    combined: Vec<Mat3A>,
+    precond: Vec<Mat3A>,
     force: Vec<Vec3>,
-    rhs: Vec<Vec3>,
-    dv: Vec<Vec3>,
-    r: Vec<Vec3>,
-    d: Vec<Vec3>,
-    q: Vec<Vec3>,
-    y: Vec<Vec3>,
+    // The solver's vectors are 16-byte `Vec3A`s, so that the operator's
+    // gathers and scatters are one SIMD load or store each.
+    rhs: Vec<Vec3A>,
+    dv: Vec<Vec3A>,
+    r: Vec<Vec3A>,
+    d: Vec<Vec3A>,
+    q: Vec<Vec3A>,
+    y: Vec<Vec3A>,
     tmp: Vec<Vec3>,
+    w_term: Vec<Vec3>,
     prev_x: Vec<Vec3>,
     prev_v: Vec<Vec3>,
     expected_x: Vec<Vec3>,
@@ -58,21 +64,26 @@ impl ImplicitBuffers {
             self.warm = false;
         }
         for buf in [
-            &mut self.force,
             &mut self.rhs,
             &mut self.dv,
             &mut self.r,
             &mut self.d,
             &mut self.q,
             &mut self.y,
+        ] {
+            buf.resize(n, Vec3A::ZERO);
+        }
+        for buf in [
+            &mut self.force,
             &mut self.tmp,
+            &mut self.w_term,
             &mut self.prev_x,
             &mut self.prev_v,
             &mut self.expected_x,
         ] {
             buf.resize(n, Vec3::ZERO);
         }
-        self.precond.resize(n, Mat3::IDENTITY);
+        self.precond.resize(n, Mat3A::IDENTITY);
     }
 
     /// Forgets the BDF2 history, so the next BDF2 step is backward Euler.
@@ -95,56 +106,56 @@ pub fn k_times(blocks: &[Block], w: &[Vec3], out: &mut [Vec3]) {
 /// The filtered operator `A`, from per-block `C = αD + βK` and the scaled
 /// mass `M(1 + αc)`.
 struct Operator<'a> {
-    blocks: &'a [Block],
-    combined: &'a [Mat3],
+    pairs: &'a [[u32; 2]],
+    combined: &'a [Mat3A],
     inverse_masses: &'a [f32],
     mass_scale: f32,
 }
 
 impl Operator<'_> {
-    fn apply(&self, d: &[Vec3], out: &mut [Vec3]) {
+    fn apply(&self, d: &[Vec3A], out: &mut [Vec3A]) {
         for ((o, &w), &di) in out.iter_mut().zip(self.inverse_masses).zip(d) {
             *o = if w == 0.0 {
-                Vec3::ZERO
+                Vec3A::ZERO
             } else {
                 di * (self.mass_scale / w)
             };
         }
-        for (blk, c) in self.blocks.iter().zip(self.combined) {
-            let (a, b) = (blk.a as usize, blk.b as usize);
+        for (&[a, b], c) in self.pairs.iter().zip(self.combined) {
+            let (a, b) = (a as usize, b as usize);
             let t = *c * (d[b] - d[a]);
             out[a] -= t;
             out[b] += t;
         }
         for (o, &w) in out.iter_mut().zip(self.inverse_masses) {
             if w == 0.0 {
-                *o = Vec3::ZERO;
+                *o = Vec3A::ZERO;
             }
         }
     }
 
     /// Inverses of the 3×3 diagonal blocks of `A` (identity for pins).
-    fn precondition(&self, out: &mut [Mat3]) {
+    fn precondition(&self, out: &mut [Mat3A]) {
         for (p, &w) in out.iter_mut().zip(self.inverse_masses) {
             *p = if w == 0.0 {
-                Mat3::ZERO
+                Mat3A::ZERO
             } else {
-                Mat3::from_diagonal(Vec3::splat(self.mass_scale / w))
+                Mat3A::from_diagonal(Vec3::splat(self.mass_scale / w))
             };
         }
-        for (blk, c) in self.blocks.iter().zip(self.combined) {
-            out[blk.a as usize] += *c;
-            out[blk.b as usize] += *c;
+        for (&[a, b], c) in self.pairs.iter().zip(self.combined) {
+            out[a as usize] += *c;
+            out[b as usize] += *c;
         }
         for (p, &w) in out.iter_mut().zip(self.inverse_masses) {
             let det = p.determinant();
             *p = if w == 0.0 {
-                Mat3::IDENTITY
+                Mat3A::IDENTITY
             } else if det.abs() > 1e-30 && det.is_finite() {
                 p.inverse()
             } else {
                 // Fall back to the diagonal.
-                Mat3::from_diagonal(Vec3::new(
+                Mat3A::from_diagonal(Vec3::new(
                     1.0 / p.x_axis.x,
                     1.0 / p.y_axis.y,
                     1.0 / p.z_axis.z,
@@ -154,7 +165,7 @@ impl Operator<'_> {
     }
 }
 
-fn dot(a: &[Vec3], b: &[Vec3]) -> f64 {
+fn dot(a: &[Vec3A], b: &[Vec3A]) -> f64 {
     a.iter().zip(b).map(|(x, y)| x.dot(*y) as f64).sum()
 }
 
@@ -176,7 +187,7 @@ fn pcg(op: &Operator, params: &ImplicitParams, buffers: &mut ImplicitBuffers) ->
         ..
     } = buffers;
     // y = P r for the block-Jacobi preconditioner P.
-    let precondition = |y: &mut [Vec3], r: &[Vec3]| {
+    let precondition = |y: &mut [Vec3A], r: &[Vec3A]| {
         for ((yi, pi), ri) in y.iter_mut().zip(precond.iter()).zip(r) {
             *yi = *pi * *ri;
         }
@@ -184,7 +195,7 @@ fn pcg(op: &Operator, params: &ImplicitParams, buffers: &mut ImplicitBuffers) ->
     precondition(y, rhs);
     let delta0 = dot(rhs, y);
     if !(delta0 > 0.0 && delta0.is_finite()) {
-        dv.fill(Vec3::ZERO);
+        dv.fill(Vec3A::ZERO);
         *warm = false;
         return (0, 0.0);
     }
@@ -201,7 +212,7 @@ fn pcg(op: &Operator, params: &ImplicitParams, buffers: &mut ImplicitBuffers) ->
     }
     if delta.is_nan() || delta >= delta0 {
         // Cold start: Δv = 0, r = b (and y = P b, unless the warm try overwrote it).
-        dv.fill(Vec3::ZERO);
+        dv.fill(Vec3A::ZERO);
         r.copy_from_slice(rhs);
         if tried_warm {
             precondition(y, r);
@@ -219,15 +230,22 @@ fn pcg(op: &Operator, params: &ImplicitParams, buffers: &mut ImplicitBuffers) ->
             break; // not positive definite along d: stop with what we have
         }
         let alpha = (delta / dq) as f32;
-        for i in 0..dv.len() {
-            dv[i] += alpha * d[i];
-            r[i] -= alpha * q[i];
-            y[i] = precond[i] * r[i];
+        let mut next = 0.0;
+        for ((((dvi, ri), yi), &di), (&qi, pi)) in dv
+            .iter_mut()
+            .zip(r.iter_mut())
+            .zip(y.iter_mut())
+            .zip(d.iter())
+            .zip(q.iter().zip(precond.iter()))
+        {
+            *dvi += alpha * di;
+            *ri -= alpha * qi;
+            *yi = *pi * *ri;
+            next += ri.dot(*yi) as f64;
         }
-        let next = dot(r, y);
         let beta = (next / delta) as f32;
-        for i in 0..d.len() {
-            d[i] = y[i] + beta * d[i];
+        for (di, &yi) in d.iter_mut().zip(y.iter()) {
+            *di = yi + beta * *di;
         }
         delta = next;
         iterations += 1;
@@ -276,37 +294,53 @@ fn linearise(
         buffers.force[i] +=
             m * (s.gravity - s.damping * v[i]) + external.map_or(Vec3::ZERO, |e| e[i]);
     }
+    buffers.pairs.clear();
     buffers.combined.clear();
-    buffers.combined.extend(
-        buffers
-            .blocks
-            .iter()
-            .map(|blk| blk.d * alpha + blk.k * beta),
-    );
+    for blk in interleaved(&buffers.blocks) {
+        // A stretched Type 2 link or a dropped slack one adds nothing.
+        let c = Mat3A::from(blk.d * alpha + blk.k * beta);
+        if c != Mat3A::ZERO {
+            buffers.pairs.push([blk.a, blk.b]);
+            buffers.combined.push(c);
+        }
+    }
+}
+
+/// Streams the operator reads its blocks in, interleaved.
+const STREAMS: usize = 8;
+
+/// `blocks` in the order the operator reads them: [`STREAMS`] stretches of
+/// the list, one block of each in turn. Neighbouring blocks of a family
+/// share a particle, and a block that adds to the particle the previous one
+/// just wrote waits for that store; blocks from far apart in the list share
+/// none, so their updates overlap. Each stretch is still read in order.
+fn interleaved(blocks: &[Block]) -> impl Iterator<Item = &Block> {
+    let stretch = blocks.len().div_ceil(STREAMS);
+    (0..stretch).flat_map(move |i| (0..STREAMS).filter_map(move |s| blocks.get(s * stretch + i)))
 }
 
 fn solve(dynamics: &Dynamics, alpha: f32, buffers: &mut ImplicitBuffers) {
-    let blocks = std::mem::take(&mut buffers.blocks);
+    let pairs = std::mem::take(&mut buffers.pairs);
     let combined = std::mem::take(&mut buffers.combined);
     let op = Operator {
-        blocks: &blocks,
+        pairs: &pairs,
         combined: &combined,
         inverse_masses: dynamics.inverse_masses,
         mass_scale: 1.0 + alpha * dynamics.settings.damping,
     };
     op.precondition(&mut buffers.precond);
     let (iterations, residual) = pcg(&op, &dynamics.settings.implicit, buffers);
-    buffers.blocks = blocks;
+    buffers.pairs = pairs;
     buffers.combined = combined;
     buffers.last_iterations = iterations;
     buffers.last_residual = residual;
 }
 
 /// Zeroes the rows of pinned particles.
-fn filter(inverse_masses: &[f32], v: &mut [Vec3]) {
+fn filter(inverse_masses: &[f32], v: &mut [Vec3A]) {
     for (vi, &w) in v.iter_mut().zip(inverse_masses) {
         if w == 0.0 {
-            *vi = Vec3::ZERO;
+            *vi = Vec3A::ZERO;
         }
     }
 }
@@ -342,12 +376,12 @@ fn backward_euler_step(
     linearise(dynamics, x, v, h, h * h, buffers);
     k_times(&buffers.blocks, v, &mut buffers.tmp);
     for i in 0..x.len() {
-        buffers.rhs[i] = h * (buffers.force[i] + h * buffers.tmp[i]);
+        buffers.rhs[i] = (h * (buffers.force[i] + h * buffers.tmp[i])).into();
     }
     filter(dynamics.inverse_masses, &mut buffers.rhs);
     solve(dynamics, h, buffers);
     for i in 0..x.len() {
-        v[i] += buffers.dv[i];
+        v[i] += Vec3::from(buffers.dv[i]);
         x[i] += h * v[i];
     }
 }
@@ -384,24 +418,22 @@ pub fn bdf2(
     let (alpha, beta) = (2.0 / 3.0 * h, 4.0 / 9.0 * h * h);
     linearise(dynamics, x, v, alpha, beta, buffers);
     for i in 0..x.len() {
-        buffers.y[i] = (x[i] - buffers.prev_x[i]) / 3.0 + 2.0 / 3.0 * h * v[i];
+        buffers.w_term[i] = (x[i] - buffers.prev_x[i]) / 3.0 + 2.0 / 3.0 * h * v[i];
     }
-    let w_term = std::mem::take(&mut buffers.y);
-    k_times(&buffers.blocks, &w_term, &mut buffers.tmp);
-    buffers.y = w_term;
+    k_times(&buffers.blocks, &buffers.w_term, &mut buffers.tmp);
     for (i, &w) in dynamics.inverse_masses.iter().enumerate() {
         let inertia = if w == 0.0 {
             Vec3::ZERO
         } else {
             (v[i] - buffers.prev_v[i]) / (3.0 * w)
         };
-        buffers.rhs[i] = inertia + 2.0 / 3.0 * h * (buffers.force[i] + buffers.tmp[i]);
+        buffers.rhs[i] = (inertia + 2.0 / 3.0 * h * (buffers.force[i] + buffers.tmp[i])).into();
     }
     filter(dynamics.inverse_masses, &mut buffers.rhs);
     solve(dynamics, alpha, buffers);
     for i in 0..x.len() {
         let (xn, vn) = (x[i], v[i]);
-        let v1 = vn + buffers.dv[i];
+        let v1 = vn + Vec3::from(buffers.dv[i]);
         // 4⁄3xₙ − ⅓xₙ₋₁ + ⅔hv written as xₙ plus a small increment, so f32
         // rounds once per step instead of cancelling large terms.
         let x1 = xn + ((xn - buffers.prev_x[i]) / 3.0 + 2.0 / 3.0 * h * v1);
@@ -438,8 +470,8 @@ mod tests {
                 };
             }
         }
-        for (blk, c) in buffers.blocks.iter().zip(&buffers.combined) {
-            let (p, q) = (blk.a as usize, blk.b as usize);
+        for (&[p, q], c) in buffers.pairs.iter().zip(&buffers.combined) {
+            let (p, q, c) = (p as usize, q as usize, bevy::math::Mat3::from(*c));
             for r in 0..3 {
                 for s in 0..3 {
                     let v = c.col(s)[r] as f64;
@@ -460,6 +492,34 @@ mod tests {
             }
         }
         a
+    }
+
+    #[test]
+    fn the_operator_reads_every_block_once_and_neighbours_apart() {
+        let cloth = ClothBuilder::new(20, 20).build().unwrap();
+        let settings = ClothSettings::default();
+        let mut buffers = ImplicitBuffers::default();
+        let (x, v) = (&cloth.particles.positions, &cloth.particles.velocities);
+        assemble(
+            &settings,
+            &cloth.connections,
+            true,
+            x,
+            v,
+            &mut vec![Vec3::ZERO; 400],
+            &mut buffers.blocks,
+        );
+        let order: Vec<[u32; 2]> = interleaved(&buffers.blocks).map(|b| [b.a, b.b]).collect();
+        let mut sorted = order.clone();
+        let mut all: Vec<[u32; 2]> = buffers.blocks.iter().map(|b| [b.a, b.b]).collect();
+        sorted.sort_unstable();
+        all.sort_unstable();
+        assert_eq!(sorted, all);
+        let shared = order
+            .windows(2)
+            .filter(|w| w[0].iter().any(|p| w[1].contains(p)))
+            .count();
+        assert!(shared < order.len() / 100, "{shared} of {}", order.len());
     }
 
     /// Gaussian elimination with partial pivoting.
@@ -524,7 +584,7 @@ mod tests {
             &mut buffers,
         );
         for (i, r) in buffers.rhs.iter_mut().enumerate() {
-            *r = Vec3::new(1.0, -2.0, 0.5) * (i as f32 * 0.3).sin() * 1e-3;
+            *r = Vec3A::new(1.0, -2.0, 0.5) * (i as f32 * 0.3).sin() * 1e-3;
         }
         filter(&w, &mut buffers.rhs);
         solve(&dynamics, h, &mut buffers);
@@ -551,8 +611,8 @@ mod tests {
         );
         assert!(buffers.last_residual <= 1e-6);
         // Pins: Δv exactly zero.
-        assert_eq!(buffers.dv[0], Vec3::ZERO);
-        assert_eq!(buffers.dv[3], Vec3::ZERO);
+        assert_eq!(buffers.dv[0], Vec3A::ZERO);
+        assert_eq!(buffers.dv[3], Vec3A::ZERO);
 
         // Warm start: the same system again starts at its solution and
         // needs (almost) no iterations; a slightly changed one needs fewer
