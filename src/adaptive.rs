@@ -144,11 +144,8 @@ pub fn stiffest_mode(
     let split = settings.integrator == Integrator::ExplicitEuler;
     let x = if split { x } else { &[] };
     // Tension over length: the transverse stiffness of a stretched link.
-    let geometric = |l: &Link, k: f32| {
-        length(x, l).map_or(0.0, |len| {
-            (k * (len - l.rest_length)).abs() / len.max(MIN_LENGTH)
-        })
-    };
+    let geometric =
+        |l: &Link, len: f32, k: f32| (k * (len - l.rest_length)).abs() / len.max(MIN_LENGTH);
     let mut ratio = f32::INFINITY;
     let mut damped = |k: f32, d: f32| {
         if k > 0.0 {
@@ -166,8 +163,8 @@ pub fn stiffest_mode(
                 &connections.crease,
             ] {
                 for l in links.iter() {
-                    let taut = length(x, l).is_some_and(|len| len > l.rest_length);
-                    let u = if taut { geometric(l, k) } else { 0.0 };
+                    let taut = length(x, l).filter(|&len| len > l.rest_length);
+                    let u = taut.map_or(0.0, |len| geometric(l, len, k));
                     add_link(sums, w, l, k, kd, u);
                 }
             }
@@ -199,7 +196,7 @@ pub fn stiffest_mode(
                     damped(s.stiffness, s.damping);
                 }
                 for l in links.iter() {
-                    let u = geometric(l, s.stiffness);
+                    let u = length(x, l).map_or(0.0, |len| geometric(l, len, s.stiffness));
                     add_link(sums, w, l, s.stiffness, s.damping, u);
                 }
             }
