@@ -125,6 +125,12 @@ pub struct ImplicitParams {
     pub type2_jacobian: Type2Jacobian,
     /// Slack Type 1 stiffness.
     pub slack_stiffness: SlackStiffness,
+    /// Whether the preconditioner adds a coarse-grid correction
+    /// ([`implicit`](crate::integrate::implicit)): it cuts the
+    /// conjugate-gradient iterations of a stiff grid cloth several times
+    /// over (52 → 23 on 15×15 cotton at 1/60 s, 100+ → 34 on 48×48). Grid
+    /// cloths of at least 4×4 only; others solve without it. On by default.
+    pub coarse_grid: bool,
 }
 
 impl Default for ImplicitParams {
@@ -134,6 +140,7 @@ impl Default for ImplicitParams {
             max_iterations: 100,
             type2_jacobian: Type2Jacobian::Axial,
             slack_stiffness: SlackStiffness::Auto,
+            coarse_grid: true,
         }
     }
 }

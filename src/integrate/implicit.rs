@@ -1,6 +1,9 @@
 //! Implicit integrators: linearised backward Euler (Baraff–Witkin, MODEL.md
 //! §6.5) and Choi & Ko's second-order BDF (§6.6), solved matrix-free by a
-//! filtered, block-Jacobi preconditioned conjugate gradient.
+//! filtered, preconditioned conjugate gradient: block-Jacobi, plus a
+//! coarse-grid correction for grid cloths
+//! ([`ImplicitParams::coarse_grid`](crate::settings::ImplicitParams::coarse_grid); `coarse.rs`). The operator is stored by grid offset so its product runs
+//! as SIMD loops (`operator.rs`).
 //!
 //! Both solve `A Δv = b` with `A = M(1 + αc) − α D − β K`, where `K = ∂F/∂x`
 //! and `D = ∂F/∂v` come as per-connection 3×3 blocks from
@@ -16,7 +19,10 @@
 //! are zeroed, so its `Δv` is exactly 0 and it keeps the velocity it was
 //! given (0, or an anchor's). No step allocates once the buffers are warm.
 
-use bevy::math::{Mat3A, Vec3, Vec3A};
+use bevy::math::Vec3;
+
+use coarse::Coarse;
+use operator::{Operator, Soa, dot};
 
 use crate::model::Dynamics;
 use crate::model::jacobian::{Block, assemble};
@@ -27,20 +33,20 @@ use crate::settings::{ImplicitParams, SlackStiffness};
 pub struct ImplicitBuffers {
     /// Jacobian blocks of the current step.
     pub blocks: Vec<Block>,
-    /// The particles of each block, and its `C = αD + βK`: what the
-    /// conjugate gradient reads, packed.
-    pairs: Vec<[u32; 2]>,
-    combined: Vec<Mat3A>,
-    precond: Vec<Mat3A>,
+    /// The operator `A` of the current step, by grid offset.
+    op: Operator,
+    /// The coarse-grid correction of the preconditioner.
+    coarse: Coarse,
+    /// Whether `coarse` holds this step's factored operator.
+    coarse_active: bool,
     force: Vec<Vec3>,
-    // The solver's vectors are 16-byte `Vec3A`s, so that the operator's
-    // gathers and scatters are one SIMD load or store each.
-    rhs: Vec<Vec3A>,
-    dv: Vec<Vec3A>,
-    r: Vec<Vec3A>,
-    d: Vec<Vec3A>,
-    q: Vec<Vec3A>,
-    y: Vec<Vec3A>,
+    // The solver's vectors, component by component (see `operator`).
+    rhs: Soa,
+    dv: Soa,
+    r: Soa,
+    d: Soa,
+    q: Soa,
+    y: Soa,
     tmp: Vec<Vec3>,
     w_term: Vec<Vec3>,
     prev_x: Vec<Vec3>,
@@ -71,7 +77,7 @@ impl ImplicitBuffers {
             &mut self.q,
             &mut self.y,
         ] {
-            buf.resize(n, Vec3A::ZERO);
+            buf.resize(n);
         }
         for buf in [
             &mut self.force,
@@ -83,7 +89,6 @@ impl ImplicitBuffers {
         ] {
             buf.resize(n, Vec3::ZERO);
         }
-        self.precond.resize(n, Mat3A::IDENTITY);
     }
 
     /// Forgets the BDF2 history, so the next BDF2 step is backward Euler.
@@ -103,80 +108,14 @@ pub fn k_times(blocks: &[Block], w: &[Vec3], out: &mut [Vec3]) {
     }
 }
 
-/// The filtered operator `A`, from per-block `C = αD + βK` and the scaled
-/// mass `M(1 + αc)`.
-struct Operator<'a> {
-    pairs: &'a [[u32; 2]],
-    combined: &'a [Mat3A],
-    inverse_masses: &'a [f32],
-    mass_scale: f32,
-}
-
-impl Operator<'_> {
-    fn apply(&self, d: &[Vec3A], out: &mut [Vec3A]) {
-        for ((o, &w), &di) in out.iter_mut().zip(self.inverse_masses).zip(d) {
-            *o = if w == 0.0 {
-                Vec3A::ZERO
-            } else {
-                di * (self.mass_scale / w)
-            };
-        }
-        for (&[a, b], c) in self.pairs.iter().zip(self.combined) {
-            let (a, b) = (a as usize, b as usize);
-            let t = *c * (d[b] - d[a]);
-            out[a] -= t;
-            out[b] += t;
-        }
-        for (o, &w) in out.iter_mut().zip(self.inverse_masses) {
-            if w == 0.0 {
-                *o = Vec3A::ZERO;
-            }
-        }
-    }
-
-    /// Inverses of the 3×3 diagonal blocks of `A` (identity for pins).
-    fn precondition(&self, out: &mut [Mat3A]) {
-        for (p, &w) in out.iter_mut().zip(self.inverse_masses) {
-            *p = if w == 0.0 {
-                Mat3A::ZERO
-            } else {
-                Mat3A::from_diagonal(Vec3::splat(self.mass_scale / w))
-            };
-        }
-        for (&[a, b], c) in self.pairs.iter().zip(self.combined) {
-            out[a as usize] += *c;
-            out[b as usize] += *c;
-        }
-        for (p, &w) in out.iter_mut().zip(self.inverse_masses) {
-            let det = p.determinant();
-            *p = if w == 0.0 {
-                Mat3A::IDENTITY
-            } else if det.abs() > 1e-30 && det.is_finite() {
-                p.inverse()
-            } else {
-                // Fall back to the diagonal.
-                Mat3A::from_diagonal(Vec3::new(
-                    1.0 / p.x_axis.x,
-                    1.0 / p.y_axis.y,
-                    1.0 / p.z_axis.z,
-                ))
-            };
-        }
-    }
-}
-
-fn dot(a: &[Vec3A], b: &[Vec3A]) -> f64 {
-    a.iter().zip(b).map(|(x, y)| x.dot(*y) as f64).sum()
-}
-
 /// Solves `A Δv = b` (b already filtered) into `buffers.dv` by PCG with the
-/// block-Jacobi preconditioner `buffers.precond`. It starts from the last
-/// step's `Δv` when there is one and it is closer than `Δv = 0` (a warm
-/// start), and stops once `rᵀP r ≤ ε² bᵀP b` either way.
+/// preconditioner `P⁻¹ = B⁻¹ (+ the coarse correction)`. It starts from the
+/// last step's `Δv` when there is one and it is closer than `Δv = 0` (a
+/// warm start), and stops once `rᵀP⁻¹r ≤ ε² bᵀP⁻¹b` either way.
 /// Returns (iterations, relative residual).
-fn pcg(op: &Operator, params: &ImplicitParams, buffers: &mut ImplicitBuffers) -> (u32, f32) {
+fn pcg(params: &ImplicitParams, buffers: &mut ImplicitBuffers) -> (u32, f32) {
     let ImplicitBuffers {
-        precond,
+        op,
         rhs,
         dv,
         r,
@@ -184,43 +123,49 @@ fn pcg(op: &Operator, params: &ImplicitParams, buffers: &mut ImplicitBuffers) ->
         q,
         y,
         warm,
+        coarse,
+        coarse_active,
         ..
     } = buffers;
-    // y = P r for the block-Jacobi preconditioner P.
-    let precondition = |y: &mut [Vec3A], r: &[Vec3A]| {
-        for ((yi, pi), ri) in y.iter_mut().zip(precond.iter()).zip(r) {
-            *yi = *pi * *ri;
+    let mut coarse = coarse_active.then_some(coarse);
+    // y = P⁻¹ r: block-Jacobi, plus the coarse correction when it is on.
+    let mut precondition = |op: &Operator, r: &Soa, y: &mut Soa| {
+        op.precondition(r, y);
+        if let Some(c) = coarse.as_mut() {
+            c.add(r, y);
         }
     };
-    precondition(y, rhs);
+    precondition(op, rhs, y);
     let delta0 = dot(rhs, y);
     if !(delta0 > 0.0 && delta0.is_finite()) {
-        dv.fill(Vec3A::ZERO);
+        dv.zero();
         *warm = false;
         return (0, 0.0);
     }
     let tried_warm = *warm;
     let mut delta = f64::NAN;
     if tried_warm {
-        filter(op.inverse_masses, dv);
+        dv.filter(&op.free);
         op.apply(dv, q);
-        for ((ri, bi), qi) in r.iter_mut().zip(rhs.iter()).zip(q.iter()) {
-            *ri = *bi - *qi;
+        for ((r, b), q) in r.0.iter_mut().zip(&rhs.0).zip(&q.0) {
+            for ((ri, bi), qi) in r.iter_mut().zip(b).zip(q) {
+                *ri = bi - qi;
+            }
         }
-        precondition(y, r);
+        precondition(op, r, y);
         delta = dot(r, y);
     }
     if delta.is_nan() || delta >= delta0 {
-        // Cold start: Δv = 0, r = b (and y = P b, unless the warm try overwrote it).
-        dv.fill(Vec3A::ZERO);
-        r.copy_from_slice(rhs);
+        // Cold start: Δv = 0, r = b (and y = P⁻¹b, unless the warm try overwrote it).
+        dv.zero();
+        r.copy_from(rhs);
         if tried_warm {
-            precondition(y, r);
+            precondition(op, r, y);
         }
         delta = delta0;
     }
     *warm = true;
-    d.copy_from_slice(y);
+    d.copy_from(y);
     let tol2 = (params.tolerance as f64).powi(2);
     let mut iterations = 0;
     while iterations < params.max_iterations && delta > tol2 * delta0 {
@@ -230,22 +175,23 @@ fn pcg(op: &Operator, params: &ImplicitParams, buffers: &mut ImplicitBuffers) ->
             break; // not positive definite along d: stop with what we have
         }
         let alpha = (delta / dq) as f32;
-        let mut next = 0.0;
-        for ((((dvi, ri), yi), &di), (&qi, pi)) in dv
-            .iter_mut()
-            .zip(r.iter_mut())
-            .zip(y.iter_mut())
-            .zip(d.iter())
-            .zip(q.iter().zip(precond.iter()))
-        {
-            *dvi += alpha * di;
-            *ri -= alpha * qi;
-            *yi = *pi * *ri;
-            next += ri.dot(*yi) as f64;
+        for k in 0..3 {
+            for ((dvi, ri), (&di, &qi)) in dv.0[k]
+                .iter_mut()
+                .zip(r.0[k].iter_mut())
+                .zip(d.0[k].iter().zip(&q.0[k]))
+            {
+                *dvi += alpha * di;
+                *ri -= alpha * qi;
+            }
         }
+        precondition(op, r, y);
+        let next = dot(r, y);
         let beta = (next / delta) as f32;
-        for (di, &yi) in d.iter_mut().zip(y.iter()) {
-            *di = yi + beta * *di;
+        for (d, y) in d.0.iter_mut().zip(&y.0) {
+            for (di, &yi) in d.iter_mut().zip(y) {
+                *di = yi + beta * *di;
+            }
         }
         delta = next;
         iterations += 1;
@@ -254,8 +200,8 @@ fn pcg(op: &Operator, params: &ImplicitParams, buffers: &mut ImplicitBuffers) ->
 }
 
 /// Assembles forces and blocks at `(x, v)`, adds gravity, damping and the
-/// external forces to `buffers.force` (N), and fills `combined` with
-/// `αD + βK`.
+/// external forces to `buffers.force` (N), and builds the operator
+/// `A = M(1 + αc) − αD − βK` (and the coarse one when it is wanted).
 fn linearise(
     dynamics: &Dynamics,
     x: &[Vec3],
@@ -294,55 +240,21 @@ fn linearise(
         buffers.force[i] +=
             m * (s.gravity - s.damping * v[i]) + external.map_or(Vec3::ZERO, |e| e[i]);
     }
-    buffers.pairs.clear();
-    buffers.combined.clear();
-    for blk in interleaved(&buffers.blocks) {
-        // A stretched Type 2 link or a dropped slack one adds nothing.
-        let c = Mat3A::from(blk.d * alpha + blk.k * beta);
-        if c != Mat3A::ZERO {
-            buffers.pairs.push([blk.a, blk.b]);
-            buffers.combined.push(c);
-        }
-    }
+    let columns = dynamics.connections.columns as usize;
+    let mass_scale = 1.0 + alpha * s.damping;
+    let w = dynamics.inverse_masses;
+    buffers.coarse_active = s.implicit.coarse_grid && buffers.coarse.begin(columns, w, mass_scale);
+    let coarse = buffers.coarse_active.then_some(&mut buffers.coarse);
+    buffers
+        .op
+        .build(columns, w, mass_scale, &buffers.blocks, alpha, beta, coarse);
+    buffers.coarse_active = buffers.coarse_active && buffers.coarse.finish();
 }
 
-/// Streams the operator reads its blocks in, interleaved.
-const STREAMS: usize = 8;
-
-/// `blocks` in the order the operator reads them: [`STREAMS`] stretches of
-/// the list, one block of each in turn. Neighbouring blocks of a family
-/// share a particle, and a block that adds to the particle the previous one
-/// just wrote waits for that store; blocks from far apart in the list share
-/// none, so their updates overlap. Each stretch is still read in order.
-fn interleaved(blocks: &[Block]) -> impl Iterator<Item = &Block> {
-    let stretch = blocks.len().div_ceil(STREAMS);
-    (0..stretch).flat_map(move |i| (0..STREAMS).filter_map(move |s| blocks.get(s * stretch + i)))
-}
-
-fn solve(dynamics: &Dynamics, alpha: f32, buffers: &mut ImplicitBuffers) {
-    let pairs = std::mem::take(&mut buffers.pairs);
-    let combined = std::mem::take(&mut buffers.combined);
-    let op = Operator {
-        pairs: &pairs,
-        combined: &combined,
-        inverse_masses: dynamics.inverse_masses,
-        mass_scale: 1.0 + alpha * dynamics.settings.damping,
-    };
-    op.precondition(&mut buffers.precond);
-    let (iterations, residual) = pcg(&op, &dynamics.settings.implicit, buffers);
-    buffers.pairs = pairs;
-    buffers.combined = combined;
+fn solve(dynamics: &Dynamics, buffers: &mut ImplicitBuffers) {
+    let (iterations, residual) = pcg(&dynamics.settings.implicit, buffers);
     buffers.last_iterations = iterations;
     buffers.last_residual = residual;
-}
-
-/// Zeroes the rows of pinned particles.
-fn filter(inverse_masses: &[f32], v: &mut [Vec3A]) {
-    for (vi, &w) in v.iter_mut().zip(inverse_masses) {
-        if w == 0.0 {
-            *vi = Vec3A::ZERO;
-        }
-    }
 }
 
 /// One step of linearised backward Euler (MODEL.md §6.5):
@@ -376,12 +288,13 @@ fn backward_euler_step(
     linearise(dynamics, x, v, h, h * h, buffers);
     k_times(&buffers.blocks, v, &mut buffers.tmp);
     for i in 0..x.len() {
-        buffers.rhs[i] = (h * (buffers.force[i] + h * buffers.tmp[i])).into();
+        let rhs = h * (buffers.force[i] + h * buffers.tmp[i]);
+        buffers.rhs.set(i, rhs);
     }
-    filter(dynamics.inverse_masses, &mut buffers.rhs);
-    solve(dynamics, h, buffers);
+    buffers.rhs.filter(&buffers.op.free);
+    solve(dynamics, buffers);
     for i in 0..x.len() {
-        v[i] += Vec3::from(buffers.dv[i]);
+        v[i] += buffers.dv.get(i);
         x[i] += h * v[i];
     }
 }
@@ -427,13 +340,14 @@ pub fn bdf2(
         } else {
             (v[i] - buffers.prev_v[i]) / (3.0 * w)
         };
-        buffers.rhs[i] = (inertia + 2.0 / 3.0 * h * (buffers.force[i] + buffers.tmp[i])).into();
+        let rhs = inertia + 2.0 / 3.0 * h * (buffers.force[i] + buffers.tmp[i]);
+        buffers.rhs.set(i, rhs);
     }
-    filter(dynamics.inverse_masses, &mut buffers.rhs);
-    solve(dynamics, alpha, buffers);
+    buffers.rhs.filter(&buffers.op.free);
+    solve(dynamics, buffers);
     for i in 0..x.len() {
         let (xn, vn) = (x[i], v[i]);
-        let v1 = vn + Vec3::from(buffers.dv[i]);
+        let v1 = vn + buffers.dv.get(i);
         // 4⁄3xₙ − ⅓xₙ₋₁ + ⅔hv written as xₙ plus a small increment, so f32
         // rounds once per step instead of cancelling large terms.
         let x1 = xn + ((xn - buffers.prev_x[i]) / 3.0 + 2.0 / 3.0 * h * v1);
@@ -447,3 +361,6 @@ pub fn bdf2(
 
 #[cfg(test)]
 mod tests;
+
+mod coarse;
+mod operator;
