@@ -12,8 +12,8 @@
 //! (xx, yy, zz, xy, xz, yz), and the vectors are stored the same way
 //! ([`Soa`]). A stream's product is then three loops over contiguous
 //! arrays with no index lists, which the compiler turns into SIMD: on a
-//! 64×64 cloth this runs ~3× faster than the pair list of 3×3 blocks it
-//! replaced. Pairs with any other step (crease springs, hand-made
+//! 64×64 cloth a product takes about 45 µs where the pair list of 3×3
+//! blocks it replaced took about 70. Pairs with any other step (crease springs, hand-made
 //! connections) go through a short pair list. Nothing assumes the pairs
 //! form a grid: a missing pair is a zero block.
 
