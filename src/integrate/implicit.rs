@@ -1,9 +1,10 @@
 //! Implicit integrators: linearised backward Euler (Baraff–Witkin, MODEL.md
 //! §6.5) and Choi & Ko's second-order BDF (§6.6), solved matrix-free by a
 //! filtered, preconditioned conjugate gradient: block-Jacobi, plus a
-//! coarse-grid correction for grid cloths
-//! ([`ImplicitParams::coarse_grid`](crate::settings::ImplicitParams::coarse_grid); `coarse.rs`). The operator is stored by grid offset so its product runs
-//! as SIMD loops (`operator.rs`).
+//! coarse-grid correction for grid cloths (`coarse.rs`,
+//! [`ImplicitParams::coarse_grid`](crate::settings::ImplicitParams::coarse_grid)).
+//! The operator is stored by grid offset, so its product runs as SIMD loops
+//! (`operator.rs`).
 //!
 //! Both solve `A Δv = b` with `A = M(1 + αc) − α D − β K`, where `K = ∂F/∂x`
 //! and `D = ∂F/∂v` come as per-connection 3×3 blocks from
