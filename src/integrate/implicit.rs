@@ -133,7 +133,7 @@ fn pcg(params: &ImplicitParams, buffers: &mut ImplicitBuffers) -> (u32, f32) {
     let mut precondition = |op: &Operator, r: &Soa, y: &mut Soa| {
         op.precondition(r, y);
         if let Some(c) = coarse.as_mut() {
-            c.add(r, y);
+            c.add(r, y, &op.free);
         }
     };
     precondition(op, rhs, y);

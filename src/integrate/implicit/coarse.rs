@@ -26,7 +26,7 @@
 
 use bevy::math::{Mat3A, Vec3};
 
-use super::operator::Soa;
+use super::operator::{Soa, sym_matrix};
 
 /// Aggregates per side of the coarse grid at most.
 pub const COARSE_SIDE: usize = 8;
@@ -39,8 +39,6 @@ const NONE: u32 = u32::MAX;
 pub(super) struct Coarse {
     /// Aggregate of each particle, [`NONE`] for pinned ones.
     aggregate: Vec<u32>,
-    /// 1 for a free particle, 0 for a pinned one.
-    free: Vec<f32>,
     /// Particles per grid row.
     fine_columns: usize,
     /// Particles per aggregate side.
@@ -87,12 +85,6 @@ impl Coarse {
         self.fine_columns = columns;
         self.side = side;
         self.unusable = false;
-        self.free.clear();
-        self.free.extend(
-            inverse_masses
-                .iter()
-                .map(|&w| if w == 0.0 { 0.0 } else { 1.0 }),
-        );
         self.aggregate.clear();
         self.aggregate
             .extend(inverse_masses.iter().enumerate().map(|(p, &w)| {
@@ -130,8 +122,7 @@ impl Coarse {
         if i == j {
             return;
         }
-        let [xx, yy, zz, xy, xz, yz] = *c;
-        let c = Mat3A::from_cols_array(&[xx, xy, xz, xy, yy, yz, xz, yz, zz]);
+        let c = Mat3A::from(sym_matrix(c));
         if i == NONE || j == NONE {
             self.diag[i.min(j) as usize] += c;
             return;
@@ -221,8 +212,8 @@ impl Coarse {
     }
 
     /// `y += R A_c⁻¹ Rᵀ r` (r in N·s, zero at pins as the filter leaves it;
-    /// y in m/s).
-    pub(super) fn add(&mut self, r: &Soa, y: &mut Soa) {
+    /// y in m/s), leaving the particles whose `free` is 0 (pins) alone.
+    pub(super) fn add(&mut self, r: &Soa, y: &mut Soa, free: &[f32]) {
         let (cols, side, ccols) = (self.fine_columns, self.side, self.columns);
         let rc = &mut self.rc;
         rc.fill(0.0);
@@ -255,9 +246,7 @@ impl Coarse {
         }
         // R e, pins left alone.
         for (k, comp) in y.0.iter_mut().enumerate() {
-            let rows = comp
-                .chunks_exact_mut(cols)
-                .zip(self.free.chunks_exact(cols));
+            let rows = comp.chunks_exact_mut(cols).zip(free.chunks_exact(cols));
             for (j, (row, free)) in rows.enumerate() {
                 let base = (j / side) * ccols;
                 let runs = row.chunks_mut(side).zip(free.chunks(side));

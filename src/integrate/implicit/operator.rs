@@ -129,15 +129,21 @@ fn sym(m: Mat3) -> [f32; 6] {
     ]
 }
 
-/// The inverse of the symmetric matrix `s`, or of its diagonal if it is
-/// singular.
-fn sym_inverse(s: [f32; 6]) -> [f32; 6] {
-    let [xx, yy, zz, xy, xz, yz] = s;
-    let m = Mat3::from_cols(
+/// The symmetric matrix whose six components are `s`.
+pub(super) fn sym_matrix(s: &[f32; 6]) -> Mat3 {
+    let [xx, yy, zz, xy, xz, yz] = *s;
+    Mat3::from_cols(
         Vec3::new(xx, xy, xz),
         Vec3::new(xy, yy, yz),
         Vec3::new(xz, yz, zz),
-    );
+    )
+}
+
+/// The inverse of the symmetric matrix `s`, or of its diagonal if it is
+/// singular.
+fn sym_inverse(s: [f32; 6]) -> [f32; 6] {
+    let [xx, yy, zz, ..] = s;
+    let m = sym_matrix(&s);
     let det = m.determinant();
     if det.abs() > 1e-30 && det.is_finite() {
         sym(m.inverse())

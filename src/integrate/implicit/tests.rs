@@ -21,11 +21,11 @@ fn dense(op: &Operator) -> Vec<Vec<f64>> {
             a[3 * i + k][3 * i + k] = mass[i] as f64;
         }
     }
-    for (p, q, [xx, yy, zz, xy, xz, yz]) in op.pairs() {
-        let c = [[xx, xy, xz], [xy, yy, yz], [xz, yz, zz]];
+    for (p, q, c) in op.pairs() {
+        let c = operator::sym_matrix(&c);
         for r in 0..3 {
             for s in 0..3 {
-                let v = c[r][s] as f64;
+                let v = c.col(s)[r] as f64;
                 a[3 * p + r][3 * p + s] += v;
                 a[3 * q + r][3 * q + s] += v;
                 a[3 * p + r][3 * q + s] -= v;
@@ -142,7 +142,7 @@ fn the_coarse_operator_is_r_transpose_a_r() {
     // y = R A_c⁻¹ Rᵀ (A R e) = R e at free particles.
     let mut y = Soa::default();
     y.resize(144);
-    coarse.add(&are, &mut y);
+    coarse.add(&are, &mut y, &op.free);
     for (p, &wp) in w.iter().enumerate() {
         let want = if wp == 0.0 { Vec3::ZERO } else { re.get(p) };
         assert!(
