@@ -14,7 +14,8 @@ use bevy::transform::TransformPlugin;
 use bevy_cloth::accuracy::scene;
 use bevy_cloth::integrate::StepBuffers;
 use bevy_cloth::model::bands::internal_forces_banded;
-use bevy_cloth::model::internal_forces;
+use bevy_cloth::model::streams::ForceStreams;
+use bevy_cloth::model::{internal_forces, internal_forces_streamed};
 use bevy_cloth::prelude::*;
 use bevy_cloth::settings::Parallelism;
 use bevy_cloth::step::step_cloth;
@@ -58,6 +59,25 @@ fn forces(c: &mut Criterion) {
                         &cloth.particles.positions,
                         &cloth.particles.velocities,
                         &mut f,
+                    );
+                    black_box(&f);
+                })
+            });
+        }
+        // The same forces by index step, as the explicit integrators run them.
+        for model in [ClothModel::ChoiKo, ClothModel::Lander] {
+            let settings = ClothSettings::default().with_model(model);
+            let mut streams = ForceStreams::default();
+            group.bench_function(BenchmarkId::new(format!("{model:?}_streamed"), n), |b| {
+                b.iter(|| {
+                    f.fill(Vec3::ZERO);
+                    internal_forces_streamed(
+                        &settings,
+                        &cloth.connections,
+                        &cloth.particles.positions,
+                        &cloth.particles.velocities,
+                        &mut f,
+                        &mut streams,
                     );
                     black_box(&f);
                 })

@@ -22,7 +22,11 @@ use bevy::prelude::{Component, Reflect, ReflectComponent};
 ///
 /// The force on `a` is `f(ℓ)·u` with `u = (x_b − x_a)/ℓ` and the force on `b`
 /// is its opposite (MODEL.md §0), so every connection conserves momentum.
-#[derive(Clone, Copy, Debug, PartialEq, Reflect)]
+///
+/// Plain data (`repr(C)`, [`bytemuck::Pod`]), so link lists compare as
+/// bytes.
+#[derive(Clone, Copy, Debug, PartialEq, Reflect, bytemuck::Pod, bytemuck::Zeroable)]
+#[repr(C)]
 pub struct Link {
     /// Index of the first particle.
     pub a: u32,

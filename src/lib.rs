@@ -80,6 +80,7 @@ pub mod picking;
 pub mod pose;
 pub mod schedule;
 pub mod settings;
+mod soa;
 pub mod step;
 mod systems;
 pub mod wind;

@@ -21,7 +21,8 @@ pub fn explicit_euler(
     mut accel: impl FnMut(&[Vec3], &[Vec3], &mut [Vec3]),
 ) {
     accel(x, v, a);
-    for ((xi, vi), ai) in x.iter_mut().zip(v.iter_mut()).zip(a.iter()) {
+    let (x, v, a) = (super::flat_mut(x), super::flat_mut(v), super::flat(a));
+    for ((xi, vi), ai) in x.iter_mut().zip(v.iter_mut()).zip(a) {
         *xi += *vi * dt;
         *vi += *ai * dt;
     }

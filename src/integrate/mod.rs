@@ -31,6 +31,19 @@ use bevy::math::Vec3;
 use crate::model::Dynamics;
 use crate::settings::Integrator;
 
+/// The components of `v` as one flat array (x, y, z of each vector in
+/// turn), so that element-wise loops vectorise.
+#[inline]
+fn flat(v: &[Vec3]) -> &[f32] {
+    bytemuck::cast_slice(v)
+}
+
+/// [`flat`] for writing.
+#[inline]
+fn flat_mut(v: &mut [Vec3]) -> &mut [f32] {
+    bytemuck::cast_slice_mut(v)
+}
+
 /// Preallocated per-cloth scratch for the integrators (five vectors of one
 /// `Vec3` per particle).
 #[derive(Clone, Debug, Default)]
@@ -50,6 +63,8 @@ pub struct StepBuffers {
     pub substep_start: Vec<Vec3>,
     /// Buffers of the implicit integrators (sized on first use).
     pub implicit: ImplicitBuffers,
+    /// The explicit integrators' force streams (built on first use).
+    pub streams: crate::model::streams::ForceStreams,
     /// Per-particle sums of the adaptive substep estimate
     /// ([`adaptive`](crate::adaptive)), filled only when it is on.
     pub mode_sums: Vec<crate::adaptive::ModeSums>,
@@ -88,7 +103,16 @@ pub fn step(
     dt: f32,
     buffers: &mut StepBuffers,
 ) {
-    let accel = |x: &[Vec3], v: &[Vec3], a: &mut [Vec3]| dynamics.accelerations(x, v, a);
+    // Taken out for the step so that `accel` may borrow it while the
+    // integrators borrow the other buffers.
+    let mut streams = std::mem::take(&mut buffers.streams);
+    if !integrator.is_implicit() {
+        // The connections cannot change during the step: compare them once.
+        dynamics.sync_streams(&mut streams, x.len());
+    }
+    let accel = |x: &[Vec3], v: &[Vec3], a: &mut [Vec3]| {
+        dynamics.accelerations_synced(&mut streams, x, v, a)
+    };
     match integrator {
         Integrator::ExplicitEuler => explicit_euler(x, v, dt, &mut buffers.accel, accel),
         Integrator::SymplecticEuler => symplectic_euler(x, v, dt, &mut buffers.accel, accel),
@@ -96,6 +120,7 @@ pub fn step(
         Integrator::BackwardEuler => backward_euler(dynamics, x, v, dt, &mut buffers.implicit),
         Integrator::Bdf2 => bdf2(dynamics, x, v, dt, &mut buffers.implicit),
     }
+    buffers.streams = streams;
 }
 
 #[cfg(test)]

@@ -39,30 +39,44 @@ pub fn rk4(
         ..
     } = buffers;
     let half = 0.5 * dt;
+    let n = 3 * x.len();
+    // The updates run over flat component arrays, which vectorise.
+    use super::{flat, flat_mut};
 
     // Stage 1 at (x, v): k₁ = (v, a₁).
     accel(x, v, a);
-    for i in 0..x.len() {
-        sum_x[i] = v[i];
-        sum_v[i] = a[i];
-        stage_x[i] = x[i] + half * v[i];
-        stage_v[i] = v[i] + half * a[i];
+    {
+        let (x, v, a) = (&flat(x)[..n], &flat(v)[..n], &flat(a)[..n]);
+        let (sx, sv) = (&mut flat_mut(sum_x)[..n], &mut flat_mut(sum_v)[..n]);
+        let (tx, tv) = (&mut flat_mut(stage_x)[..n], &mut flat_mut(stage_v)[..n]);
+        for i in 0..n {
+            sx[i] = v[i];
+            sv[i] = a[i];
+            tx[i] = x[i] + half * v[i];
+            tv[i] = v[i] + half * a[i];
+        }
     }
     // Stages 2 and 3: k = (stage_v, a(stage)), next stage from x, v and k.
     for h in [half, dt] {
         accel(stage_x, stage_v, a);
-        for i in 0..x.len() {
-            sum_x[i] += 2.0 * stage_v[i];
-            sum_v[i] += 2.0 * a[i];
-            stage_x[i] = x[i] + h * stage_v[i];
-            stage_v[i] = v[i] + h * a[i];
+        let (x, v, a) = (&flat(x)[..n], &flat(v)[..n], &flat(a)[..n]);
+        let (sx, sv) = (&mut flat_mut(sum_x)[..n], &mut flat_mut(sum_v)[..n]);
+        let (tx, tv) = (&mut flat_mut(stage_x)[..n], &mut flat_mut(stage_v)[..n]);
+        for i in 0..n {
+            sx[i] += 2.0 * tv[i];
+            sv[i] += 2.0 * a[i];
+            tx[i] = x[i] + h * tv[i];
+            tv[i] = v[i] + h * a[i];
         }
     }
     // Stage 4 at (x + dt·k₃ˣ, v + dt·k₃ᵛ), then the weighted update.
     accel(stage_x, stage_v, a);
     let sixth = dt / 6.0;
-    for i in 0..x.len() {
-        x[i] += sixth * (sum_x[i] + stage_v[i]);
-        v[i] += sixth * (sum_v[i] + a[i]);
+    let (x, v) = (&mut flat_mut(x)[..n], &mut flat_mut(v)[..n]);
+    let (sx, sv) = (&flat(sum_x)[..n], &flat(sum_v)[..n]);
+    let (tv, a) = (&flat(stage_v)[..n], &flat(a)[..n]);
+    for i in 0..n {
+        x[i] += sixth * (sx[i] + tv[i]);
+        v[i] += sixth * (sv[i] + a[i]);
     }
 }

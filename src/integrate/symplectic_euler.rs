@@ -16,7 +16,8 @@ pub fn symplectic_euler(
     mut accel: impl FnMut(&[Vec3], &[Vec3], &mut [Vec3]),
 ) {
     accel(x, v, a);
-    for ((xi, vi), ai) in x.iter_mut().zip(v.iter_mut()).zip(a.iter()) {
+    let (x, v, a) = (super::flat_mut(x), super::flat_mut(v), super::flat(a));
+    for ((xi, vi), ai) in x.iter_mut().zip(v.iter_mut()).zip(a) {
         *vi += *ai * dt;
         *xi += *vi * dt;
     }

@@ -68,8 +68,10 @@ pub fn g_of_theta(theta: f64) -> (f64, f64) {
 /// `f_b(ℓ) = (k_b/L²)·g(ℓ/L)` in N and `df_b/dℓ = (k_b/L³)·g'(ℓ/L)` in N/m.
 #[derive(Clone, Debug)]
 pub struct BucklingTable {
-    /// `[g(s_k), g'(s_k)]` for `k = 0..=1024` (dimensionless).
-    entries: Vec<[f32; 2]>,
+    /// `[g(s_k), g'(s_k)]` for `k = 0..=1024` (dimensionless). Its length
+    /// is part of the type, so lookups need no bounds check and the force
+    /// streams' loops vectorise.
+    entries: Box<[[f32; 2]; TABLE_INTERVALS + 1]>,
 }
 
 /// The shared table, built on first use (1025 bisections, well under 1 ms).
@@ -78,13 +80,11 @@ pub static BUCKLING_TABLE: LazyLock<BucklingTable> = LazyLock::new(BucklingTable
 impl BucklingTable {
     /// Builds the table by bisection on `sinc θ = s_k` (MODEL.md §3.6a).
     pub fn new() -> Self {
-        let entries = (0..=TABLE_INTERVALS)
-            .map(|k| {
-                let s = k as f64 / TABLE_INTERVALS as f64;
-                let (g, dg) = g_of_theta(inverse_sinc(s));
-                [g as f32, dg as f32]
-            })
-            .collect();
+        let entries = Box::new(std::array::from_fn(|k| {
+            let s = k as f64 / TABLE_INTERVALS as f64;
+            let (g, dg) = g_of_theta(inverse_sinc(s));
+            [g as f32, dg as f32]
+        }));
         Self { entries }
     }
 
@@ -92,11 +92,61 @@ impl BucklingTable {
     #[inline]
     pub fn sample(&self, s: f32) -> (f32, f32) {
         let x = s.clamp(0.0, 1.0) * TABLE_INTERVALS as f32;
-        let k = (x as usize).min(TABLE_INTERVALS - 1);
+        // Through i32, which converts in SIMD lanes (NaN gives 0).
+        let k = (x as i32).min(TABLE_INTERVALS as i32 - 1) as usize;
         let t = x - k as f32;
         let [g0, d0] = self.entries[k];
         let [g1, d1] = self.entries[k + 1];
         (g0 + t * (g1 - g0), d0 + t * (d1 - d0))
+    }
+
+    /// Replaces every `s` in `values` by `g(s)`, as [`g`](Self::g) does
+    /// (except that NaN gives `g(0)`), eight at a time with AVX2's gathers
+    /// where the CPU has them: the compiler does not vectorise the lookup.
+    pub fn g_in_place(&self, values: &mut [f32]) {
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: the CPU has AVX2, as checked on the line above.
+            return unsafe { self.g_in_place_avx2(values) };
+        }
+        for s in values {
+            *s = self.g(*s);
+        }
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn g_in_place_avx2(&self, values: &mut [f32]) {
+        use std::arch::x86_64::*;
+        let base = self.entries.as_ptr().cast::<f32>();
+        let (zero, one) = (_mm256_setzero_ps(), _mm256_set1_ps(1.0));
+        let intervals = _mm256_set1_ps(TABLE_INTERVALS as f32);
+        let last = _mm256_set1_epi32(TABLE_INTERVALS as i32 - 1);
+        let mut chunks = values.chunks_exact_mut(8);
+        for chunk in &mut chunks {
+            // SAFETY: the chunk holds eight f32.
+            let s = unsafe { _mm256_loadu_ps(chunk.as_ptr()) };
+            // `max` returns its second operand for NaN: NaN becomes 0.
+            let x = _mm256_mul_ps(_mm256_min_ps(_mm256_max_ps(s, zero), one), intervals);
+            let k = _mm256_min_epi32(_mm256_cvttps_epi32(x), last);
+            let t = _mm256_sub_ps(x, _mm256_cvtepi32_ps(k));
+            // Entry k is the pair of f32 at 2k, 2k + 1; 0 ≤ k ≤ 1023.
+            let at = _mm256_slli_epi32::<1>(k);
+            // SAFETY: the gathers read f32 number 2k and 2k + 2 of the
+            // table's 2·1025, with 0 ≤ k ≤ 1023.
+            let (g0, g1) = unsafe {
+                (
+                    _mm256_i32gather_ps::<4>(base, at),
+                    _mm256_i32gather_ps::<4>(base.add(2), at),
+                )
+            };
+            let g = _mm256_add_ps(g0, _mm256_mul_ps(t, _mm256_sub_ps(g1, g0)));
+            // SAFETY: as for the load.
+            unsafe { _mm256_storeu_ps(chunk.as_mut_ptr(), g) };
+        }
+        for s in chunks.into_remainder() {
+            *s = self.g(*s);
+        }
     }
 
     /// `g(s)` alone (dimensionless).
@@ -164,6 +214,20 @@ pub fn type2_forces(
 mod tests {
     use super::*;
     use std::f64::consts::PI;
+
+    #[test]
+    fn g_in_place_gives_the_lookup_of_g_bit_for_bit() {
+        let table = BucklingTable::new();
+        // 61 values (seven full lanes of eight and a tail) from below 0 to
+        // above 1, with the ends and the table's last interval.
+        let mut s: Vec<f32> = (0..61).map(|k| -0.25 + k as f32 * 0.025).collect();
+        s.extend([0.0, 1.0, 1.0 - 1e-4, 0.5, 2.0]);
+        let want: Vec<f32> = s.iter().map(|&s| table.g(s)).collect();
+        table.g_in_place(&mut s);
+        for (k, (got, want)) in s.iter().zip(&want).enumerate() {
+            assert_eq!(got.to_bits(), want.to_bits(), "value {k}: {got} vs {want}");
+        }
+    }
 
     /// MODEL.md §3.3 test vectors: (s, θ, g, g').
     const VECTORS: [(f64, f64, f64, f64); 8] = [

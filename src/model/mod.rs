@@ -10,12 +10,14 @@ pub mod choi_ko;
 pub mod jacobian;
 pub mod kernel;
 pub mod lander;
+pub mod streams;
 
 use bevy::math::Vec3;
 
 use crate::connections::{ClothConnections, Link};
 use crate::settings::{ClothModel, ClothSettings, SpringParams};
 use kernel::{Law, Target};
+use streams::ForceStreams;
 
 pub use choi_ko::{BUCKLING_TABLE, BucklingTable};
 
@@ -31,26 +33,80 @@ pub fn internal_forces(
     v: &[Vec3],
     f: &mut [Vec3],
 ) {
-    let families = [
-        &connections.structural[..],
+    let mut out = Target { f, base: 0 };
+    grid_forces(settings, grid_families(connections), x, v, &mut out);
+    extra_forces(settings, connections, x, v, out.f);
+}
+
+/// [`internal_forces`] with the grid families evaluated by index step
+/// ([`streams`]): the same forces, summed in another order, in about a
+/// third of the time on a 15×15 cloth.
+pub fn internal_forces_streamed(
+    settings: &ClothSettings,
+    connections: &ClothConnections,
+    x: &[Vec3],
+    v: &[Vec3],
+    f: &mut [Vec3],
+    streams: &mut ForceStreams,
+) {
+    sync_streams(settings, connections, x.len(), streams);
+    streamed_forces(settings, connections, x, v, f, streams);
+}
+
+/// Brings `streams` up to date with the grid families of `connections`.
+fn sync_streams(
+    settings: &ClothSettings,
+    connections: &ClothConnections,
+    n: usize,
+    streams: &mut ForceStreams,
+) {
+    let (laws, count) = grid_laws(settings, grid_families(connections));
+    streams.sync(laws[..count].iter().map(|l| l.0), n);
+}
+
+/// [`internal_forces_streamed`] with streams already synced.
+fn streamed_forces(
+    settings: &ClothSettings,
+    connections: &ClothConnections,
+    x: &[Vec3],
+    v: &[Vec3],
+    f: &mut [Vec3],
+    streams: &mut ForceStreams,
+) {
+    let (laws, count) = grid_laws(settings, grid_families(connections));
+    streams.pair_forces_synced(&laws[..count], x, v, f);
+    extra_forces(settings, connections, x, v, f);
+}
+
+/// The four grid families: structural, shear, bend, bend diagonal.
+fn grid_families(connections: &ClothConnections) -> [&[Link]; 4] {
+    [
+        &connections.structural,
         &connections.shear,
         &connections.bend,
         &connections.bend_diagonal,
-    ];
-    let mut out = Target { f, base: 0 };
-    grid_forces(settings, families, x, v, &mut out);
-    extra_forces(settings, connections, x, v, out.f);
+    ]
 }
 
 /// The forces of the four grid families (structural, shear, bend, bend
 /// diagonal) into `out`; `false` if a link fell outside its window.
 fn grid_forces(
     settings: &ClothSettings,
-    [structural, shear, bend, bend_diagonal]: [&[Link]; 4],
+    families: [&[Link]; 4],
     x: &[Vec3],
     v: &[Vec3],
     out: &mut Target,
 ) -> bool {
+    let (laws, count) = grid_laws(settings, families);
+    kernel::pair_forces(&laws[..count], x, v, out)
+}
+
+/// The grid families of `settings.model` with their force laws: the first
+/// `count` entries of the array (Lander's cloth has no diagonal bend).
+fn grid_laws<'a>(
+    settings: &'a ClothSettings,
+    [structural, shear, bend, bend_diagonal]: [&'a [Link]; 4],
+) -> ([(&'a [Link], Law<'a>); 4], usize) {
     match settings.model {
         ClothModel::ChoiKo => {
             let p = &settings.choi_ko;
@@ -69,7 +125,7 @@ fn grid_forces(
                 (bend, buckling),
                 (bend_diagonal, buckling),
             ];
-            kernel::pair_forces(&families, x, v, out)
+            (families, 4)
         }
         ClothModel::Lander => {
             let p = &settings.lander;
@@ -81,8 +137,9 @@ fn grid_forces(
                 (structural, spring(p.structural)),
                 (shear, spring(p.shear)),
                 (bend, spring(p.bend)),
+                (bend_diagonal, spring(p.bend)),
             ];
-            kernel::pair_forces(&families, x, v, out)
+            (families, 3)
         }
     }
 }
@@ -137,23 +194,82 @@ impl Dynamics<'_> {
     /// `a_i = w_i (F_int + F_ext)_i + g − c·v_i` for free particles, 0 for
     /// pinned ones (`w_i = 0`), so a pin keeps whatever velocity it was given.
     pub fn accelerations(&self, x: &[Vec3], v: &[Vec3], out: &mut [Vec3]) {
+        self.accelerations_inner(None, x, v, out);
+    }
+
+    /// [`accelerations`](Self::accelerations) with the single-threaded
+    /// forces evaluated by index step ([`streams`]) in `streams`, the cache
+    /// kept for this cloth between calls.
+    pub fn accelerations_with(
+        &self,
+        streams: &mut ForceStreams,
+        x: &[Vec3],
+        v: &[Vec3],
+        out: &mut [Vec3],
+    ) {
+        self.sync_streams(streams, x.len());
+        self.accelerations_inner(Some(streams), x, v, out);
+    }
+
+    /// Brings `streams` up to date for [`accelerations_synced`]
+    /// (Self::accelerations_synced) on `n` particles.
+    pub(crate) fn sync_streams(&self, streams: &mut ForceStreams, n: usize) {
+        if !self.settings.parallel.banded(n) {
+            sync_streams(self.settings, self.connections, n, streams);
+        }
+    }
+
+    /// [`accelerations_with`](Self::accelerations_with) with `streams`
+    /// synced since the connections last changed: one comparison of the
+    /// links per step rather than per evaluation.
+    pub(crate) fn accelerations_synced(
+        &self,
+        streams: &mut ForceStreams,
+        x: &[Vec3],
+        v: &[Vec3],
+        out: &mut [Vec3],
+    ) {
+        self.accelerations_inner(Some(streams), x, v, out);
+    }
+
+    fn accelerations_inner(
+        &self,
+        streams: Option<&mut ForceStreams>,
+        x: &[Vec3],
+        v: &[Vec3],
+        out: &mut [Vec3],
+    ) {
         self.external_forces(out);
         let banded = self.settings.parallel.banded(out.len());
         if !(banded && bands::internal_forces_banded(self.settings, self.connections, x, v, out)) {
-            if banded {
-                // Not a layout the bands can split: start over on one thread.
-                self.external_forces(out);
+            match streams {
+                // Only synced when not banded.
+                Some(s) if !banded => {
+                    streamed_forces(self.settings, self.connections, x, v, out, s)
+                }
+                _ => {
+                    if banded {
+                        // Not a layout the bands can split: start over on one thread.
+                        self.external_forces(out);
+                    }
+                    internal_forces(self.settings, self.connections, x, v, out)
+                }
             }
-            internal_forces(self.settings, self.connections, x, v, out);
         }
-        let g = self.settings.gravity;
+        let g = self.settings.gravity.to_array();
         let c = self.settings.damping;
-        for ((a, &w), &vi) in out.iter_mut().zip(self.inverse_masses).zip(v) {
-            *a = if w == 0.0 {
-                Vec3::ZERO
-            } else {
-                w * *a + g - c * vi
-            };
+        // Component by component over flat arrays, which vectorises.
+        let out: &mut [f32] = bytemuck::cast_slice_mut(out);
+        let v: &[f32] = bytemuck::cast_slice(v);
+        let rows = out.chunks_exact_mut(3).zip(v.chunks_exact(3));
+        for ((a, v), &w) in rows.zip(self.inverse_masses) {
+            for k in 0..3 {
+                a[k] = if w == 0.0 {
+                    0.0
+                } else {
+                    w * a[k] + g[k] - c * v[k]
+                };
+            }
         }
     }
 }
@@ -201,6 +317,72 @@ mod tests {
                 "{model:?}: net {total} of {scale}"
             );
         }
+    }
+
+    /// The largest difference between two force arrays, relative to the
+    /// largest force.
+    fn relative_difference(p: &[Vec3], q: &[Vec3]) -> f32 {
+        let scale = p.iter().map(|f| f.length()).fold(0.0, f32::max);
+        let diff = p.iter().zip(q).map(|(a, b)| (*a - *b).length());
+        diff.fold(0.0, f32::max) / scale
+    }
+
+    #[test]
+    fn streamed_forces_match_the_pair_kernel_and_follow_edits_of_the_links() {
+        let (n, h) = (11u32, 0.1f32);
+        let rest: Vec<Vec3> = (0..n * n)
+            .map(|p| Vec3::new((p % n) as f32 * h, 0.0, (p / n) as f32 * h))
+            .collect();
+        let mut conn = ClothConnections::grid(n, n, &rest);
+        let mut rng = Rng(0x2545_f491_4f6c_dd1d);
+        let x: Vec<Vec3> = rest.iter().map(|&p| p + rng.vec(0.5 * h)).collect();
+        let v: Vec<Vec3> = rest.iter().map(|_| rng.vec(1.0)).collect();
+        let mut streams = ForceStreams::default();
+        let mut check = |s: &ClothSettings, conn: &ClothConnections, what: &str| {
+            let mut want = vec![Vec3::ZERO; x.len()];
+            internal_forces(s, conn, &x, &v, &mut want);
+            let mut got = vec![Vec3::ONE; x.len()];
+            internal_forces_streamed(s, conn, &x, &v, &mut got, &mut streams);
+            for f in &mut got {
+                *f -= Vec3::ONE;
+            }
+            let err = relative_difference(&want, &got);
+            assert!(err < 1e-5, "{what}: relative difference {err}");
+        };
+        for model in [ClothModel::ChoiKo, ClothModel::Lander] {
+            let mut s = ClothSettings::default().with_model(model);
+            s.choi_ko.bending_rigidity = 1.0;
+            s.choi_ko.pair_damping = 0.5;
+            check(&s, &conn, &format!("{model:?}"));
+            s.choi_ko.pair_damping = 0.0;
+            check(&s, &conn, &format!("{model:?} undamped"));
+        }
+        let s = ClothSettings {
+            choi_ko: crate::settings::ChoiKoParams {
+                bending_rigidity: 1.0,
+                ..Default::default()
+            },
+            ..Default::default()
+        };
+        // A crease shortens Type 2 rest lengths in place; the streams must
+        // see it on the next call.
+        for l in conn.bend.iter_mut().step_by(3) {
+            l.rest_length *= 0.5;
+        }
+        conn.structural[7].rest_length *= 0.8;
+        check(&s, &conn, "rest lengths edited in place");
+        // Links the streams cannot hold: reversed ends, a repeated pair,
+        // an odd step, and a family with one link removed.
+        let first = conn.shear[0];
+        conn.shear.push(Link {
+            a: first.b,
+            b: first.a,
+            ..first
+        });
+        conn.structural.push(Link::from_rest(3, 40, &rest));
+        conn.bend.remove(5);
+        conn.structural.swap(0, 9);
+        check(&s, &conn, "odd links");
     }
 
     #[test]

@@ -21,56 +21,7 @@ use bevy::math::{Mat3, Vec3};
 
 use super::coarse::Coarse;
 use crate::model::jacobian::Block;
-
-/// `n` vectors stored as three arrays of components (x, y, z).
-#[derive(Clone, Debug, Default)]
-pub(super) struct Soa(pub [Vec<f32>; 3]);
-
-impl Soa {
-    /// Makes room for `n` vectors (zeros when growing).
-    pub fn resize(&mut self, n: usize) {
-        for c in &mut self.0 {
-            c.resize(n, 0.0);
-        }
-    }
-
-    /// Vector `i`.
-    #[inline]
-    pub fn get(&self, i: usize) -> Vec3 {
-        Vec3::new(self.0[0][i], self.0[1][i], self.0[2][i])
-    }
-
-    /// Sets vector `i`.
-    #[inline]
-    pub fn set(&mut self, i: usize, v: Vec3) {
-        self.0[0][i] = v.x;
-        self.0[1][i] = v.y;
-        self.0[2][i] = v.z;
-    }
-
-    /// Sets every vector to zero.
-    pub fn zero(&mut self) {
-        for c in &mut self.0 {
-            c.fill(0.0);
-        }
-    }
-
-    /// Copies `other` (of the same length).
-    pub fn copy_from(&mut self, other: &Soa) {
-        for (c, o) in self.0.iter_mut().zip(&other.0) {
-            c.copy_from_slice(o);
-        }
-    }
-
-    /// Zeroes the vectors of pinned particles (`free[i] == 0`).
-    pub fn filter(&mut self, free: &[f32]) {
-        for c in &mut self.0 {
-            for (x, &f) in c.iter_mut().zip(free) {
-                *x = if f == 0.0 { 0.0 } else { *x };
-            }
-        }
-    }
-}
+pub(super) use crate::soa::Soa;
 
 /// `Σ aᵢ·bᵢ` in f64, summed in eight f32 lanes over runs short enough to
 /// keep six significant digits, so that the inner loop vectorises.

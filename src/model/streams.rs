@@ -1,0 +1,420 @@
+//! The grid families' pair forces by index step, as SIMD loops.
+//!
+//! A grid cloth's links join particles a fixed index step `δ = b − a`
+//! apart: `1` and `columns` for the structural family, `columns ± 1` for
+//! shear, twice those for the Type 2 families. [`ForceStreams`] sorts each
+//! family into *streams*, one per common step, holding the rest length of
+//! the link `(a, a + δ)` at index `a` (NaN where there is none). A stream's
+//! forces are then plain loops over contiguous arrays of positions and
+//! velocities stored component by component ([`Soa`]), with no index lists
+//! and no branches, which the compiler turns into eight-lane SIMD; links
+//! with any other step go through the pair kernel ([`kernel`]).
+//!
+//! The streams are a cache of the link lists: every evaluation first
+//! compares each family with the copy the streams were built from (one
+//! linear pass over the links, cheap next to the forces) and rebuilds them
+//! if anything changed, so a crease that shortens rest lengths in place is
+//! seen at once. Nothing assumes the links form a grid; a family whose
+//! steps are all different simply goes through the pair kernel.
+//!
+//! The forces are the pair kernel's, evaluated with the same operations;
+//! only the order in which they are summed into each particle differs.
+
+use bevy::math::Vec3;
+
+use super::choi_ko::{BucklingTable, MIN_LENGTH};
+use super::kernel::{self, Law, Target};
+use crate::connections::Link;
+use crate::soa::Soa;
+
+/// At most this many streams per family (a grid family has two steps).
+const MAX_STREAMS: usize = 4;
+
+/// A step gets a stream only if at least this many links share it.
+const MIN_STREAM_LINKS: usize = 8;
+
+/// Per-cloth cache and scratch of the streamed force evaluation
+/// ([`pair_forces`](Self::pair_forces)). Holds about three times the
+/// memory of the link lists it was built from.
+#[derive(Clone, Debug, Default)]
+pub struct ForceStreams {
+    /// One entry per family, in the order the families were passed.
+    families: Vec<FamilyStreams>,
+    /// Positions (m), velocities (m/s) and forces (N), by component.
+    x: Soa,
+    v: Soa,
+    f: Soa,
+    /// The force (N) on the lower particle of each pair of one stream.
+    pair: Soa,
+    /// `g(ℓ/L)` (dimensionless) and `ℓ` (m) of each pair of one Type 2 stream.
+    g: Vec<f32>,
+    len: Vec<f32>,
+}
+
+/// The streams of one family and the copy of the links they came from.
+#[derive(Clone, Debug, Default)]
+struct FamilyStreams {
+    /// The links at the last rebuild.
+    source: Vec<Link>,
+    /// Number of particles at the last rebuild.
+    particles: usize,
+    streams: Vec<Stream>,
+    /// Links that fit no stream (other steps, a repeated pair).
+    others: Vec<Link>,
+}
+
+/// The links `(a, a + delta)` of one family for `a` in `lo..lo + rest.len()`.
+#[derive(Clone, Debug)]
+struct Stream {
+    delta: usize,
+    lo: usize,
+    /// Rest length (m) of the link at `lo + i`, NaN where there is none.
+    rest: Vec<f32>,
+    /// `1/L` (1/m) of each rest length (NaN where there is none).
+    inv_rest: Vec<f32>,
+}
+
+impl FamilyStreams {
+    /// Rebuilds the streams unless `links` and `n` are what they were built from.
+    fn sync(&mut self, links: &[Link], n: usize) {
+        if self.particles == n && same_links(&self.source, links) {
+            return;
+        }
+        self.particles = n;
+        self.source.clear();
+        self.source.extend_from_slice(links);
+        self.others.clear();
+        self.streams.clear();
+
+        // The most common steps, with the range of lower ends of each.
+        let mut steps: Vec<(usize, usize, usize, usize)> = Vec::new(); // (δ, count, lo, hi)
+        for l in links {
+            let (a, b) = ordered(l);
+            if b >= n || a == b {
+                continue;
+            }
+            let delta = b - a;
+            if let Some(s) = steps.iter_mut().find(|s| s.0 == delta) {
+                s.1 += 1;
+                s.2 = s.2.min(a);
+                s.3 = s.3.max(a + 1);
+            } else if steps.len() < 4 * MAX_STREAMS {
+                // Steps beyond the first few are rare; they go to `others`.
+                steps.push((delta, 1, a, a + 1));
+            }
+        }
+        steps.sort_by(|p, q| q.1.cmp(&p.1).then(p.0.cmp(&q.0)));
+        for &(delta, count, lo, hi) in steps.iter().take(MAX_STREAMS) {
+            if count >= MIN_STREAM_LINKS {
+                self.streams.push(Stream {
+                    delta,
+                    lo,
+                    rest: vec![f32::NAN; hi - lo],
+                    inv_rest: Vec::new(),
+                });
+            }
+        }
+
+        for l in links {
+            let (a, b) = ordered(l);
+            let slot = self
+                .streams
+                .iter_mut()
+                .find(|s| b < n && b > a && s.delta == b - a)
+                .map(|s| &mut s.rest[a - s.lo])
+                .filter(|r| r.is_nan() && !l.rest_length.is_nan());
+            match slot {
+                Some(r) => *r = l.rest_length,
+                None => self.others.push(*l),
+            }
+        }
+        for s in &mut self.streams {
+            s.inv_rest = s.rest.iter().map(|r| 1.0 / r).collect();
+        }
+    }
+}
+
+/// `(min, max)` of a link's ends: a pair force is the same either way round.
+fn ordered(l: &Link) -> (usize, usize) {
+    let (a, b) = (l.a as usize, l.b as usize);
+    (a.min(b), a.max(b))
+}
+
+/// Whether two link lists are identical, bit for bit (a `memcmp`).
+fn same_links(p: &[Link], q: &[Link]) -> bool {
+    bytemuck::cast_slice::<Link, u8>(p) == bytemuck::cast_slice::<Link, u8>(q)
+}
+
+impl ForceStreams {
+    /// Adds the forces (N) of every `(links, law)` family to `out`, like
+    /// [`kernel::pair_forces`] over the whole array.
+    ///
+    /// Positions `x` in m, velocities `v` in m/s (read only by damped laws);
+    /// every link's ends must be indices into `x`.
+    pub fn pair_forces(
+        &mut self,
+        families: &[(&[Link], Law)],
+        x: &[Vec3],
+        v: &[Vec3],
+        out: &mut [Vec3],
+    ) {
+        self.sync(families.iter().map(|f| f.0), x.len());
+        self.pair_forces_synced(families, x, v, out);
+    }
+
+    /// Rebuilds the streams of every family of links that changed since
+    /// the last call, for `n` particles.
+    pub(crate) fn sync<'a>(
+        &mut self,
+        families: impl ExactSizeIterator<Item = &'a [Link]>,
+        n: usize,
+    ) {
+        if self.families.len() < families.len() {
+            self.families.resize_with(families.len(), Default::default);
+        }
+        for (cache, links) in self.families.iter_mut().zip(families) {
+            cache.sync(links, n);
+        }
+    }
+
+    /// [`pair_forces`](Self::pair_forces) without comparing the links: the
+    /// caller has [`sync`](Self::sync)ed them since they last changed.
+    pub(crate) fn pair_forces_synced(
+        &mut self,
+        families: &[(&[Link], Law)],
+        x: &[Vec3],
+        v: &[Vec3],
+        out: &mut [Vec3],
+    ) {
+        let damped = families.iter().any(|(_, law)| match *law {
+            Law::Tension { kd, .. } | Law::Spring { kd, .. } => kd != 0.0,
+            Law::Buckling { .. } => false,
+        });
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx512f") {
+            // SAFETY: the CPU has AVX-512F, as checked on the line above.
+            unsafe { self.streamed_avx512(families, x, v, damped, out) };
+        } else if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: the CPU has AVX2, as checked on the line above.
+            unsafe { self.streamed_avx2(families, x, v, damped, out) };
+        } else {
+            self.streamed(families, x, v, damped, out);
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        self.streamed(families, x, v, damped, out);
+
+        let mut target = Target { f: out, base: 0 };
+        for (cache, &(_, law)) in self.families.iter().zip(families) {
+            if !cache.others.is_empty() {
+                kernel::pair_forces(&[(&cache.others, law)], x, v, &mut target);
+            }
+        }
+    }
+
+    /// [`Self::streamed`] compiled for AVX-512's sixteen-lane vectors: 12 %
+    /// off the forces of a 15×15 cloth over AVX2 on this project's machine.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f")]
+    fn streamed_avx512(
+        &mut self,
+        families: &[(&[Link], Law)],
+        x: &[Vec3],
+        v: &[Vec3],
+        damped: bool,
+        out: &mut [Vec3],
+    ) {
+        self.streamed(families, x, v, damped, out);
+    }
+
+    /// [`Self::streamed`] compiled for AVX2's eight-lane vectors.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn streamed_avx2(
+        &mut self,
+        families: &[(&[Link], Law)],
+        x: &[Vec3],
+        v: &[Vec3],
+        damped: bool,
+        out: &mut [Vec3],
+    ) {
+        self.streamed(families, x, v, damped, out);
+    }
+
+    /// The streams' forces, added to `out`.
+    #[inline(always)]
+    fn streamed(
+        &mut self,
+        families: &[(&[Link], Law)],
+        x: &[Vec3],
+        v: &[Vec3],
+        damped: bool,
+        out: &mut [Vec3],
+    ) {
+        let n = x.len();
+        let Self {
+            families: caches,
+            x: xs,
+            v: vs,
+            f,
+            pair,
+            g,
+            len,
+        } = self;
+        for s in [&mut *xs, &mut *vs, &mut *f, &mut *pair] {
+            s.resize(n);
+        }
+        g.resize(n, 0.0);
+        len.resize(n, 0.0);
+        scatter(x, xs);
+        if damped {
+            scatter(v, vs);
+        }
+        f.zero();
+        // Undamped laws never read velocities: hand them the positions.
+        let vs = if damped { &*vs } else { &*xs };
+        for (cache, &(_, law)) in caches.iter().zip(families) {
+            for s in &cache.streams {
+                match law {
+                    Law::Tension { k, kd } => {
+                        each(s, xs, vs, pair, f, |d, dv, r, _| tension(d, dv, r, k, kd))
+                    }
+                    Law::Buckling { table, kb, cb } => {
+                        // The table lookup does not vectorise: give it a
+                        // loop of its own, between two that do.
+                        let m = s.rest.len();
+                        table_values(s, xs, table, &mut g[..m], &mut len[..m]);
+                        let (g, len, inv) = (&g[..m], &len[..m], &s.inv_rest[..m]);
+                        each(s, xs, vs, pair, f, |d, _, r, i| {
+                            buckling(d, r, len[i], inv[i], g[i], kb, cb)
+                        });
+                    }
+                    Law::Spring { ks, kd } => {
+                        each(s, xs, vs, pair, f, |d, dv, r, _| spring(d, dv, r, ks, kd))
+                    }
+                }
+            }
+        }
+        for (i, o) in out.iter_mut().enumerate() {
+            *o += f.get(i);
+        }
+    }
+}
+
+/// Copies `src` into `dst` component by component.
+#[inline(always)]
+fn scatter(src: &[Vec3], dst: &mut Soa) {
+    let [x, y, z] = &mut dst.0;
+    for (((p, x), y), z) in src.iter().zip(x).zip(y).zip(z) {
+        (*x, *y, *z) = (p.x, p.y, p.z);
+    }
+}
+
+/// `ℓ` (m) and `g(ℓ/L)` of every slot of a Type 2 stream into `len` and
+/// `g` (garbage in empty slots, which [`buckling`] ignores).
+#[inline(always)]
+fn table_values(s: &Stream, x: &Soa, table: &BucklingTable, g: &mut [f32], len: &mut [f32]) {
+    let m = s.rest.len();
+    let (a, b) = (s.lo..s.lo + m, s.lo + s.delta..s.lo + s.delta + m);
+    let [xa, ya, za] = [&x.0[0][a.clone()], &x.0[1][a.clone()], &x.0[2][a]];
+    let [xb, yb, zb] = [&x.0[0][b.clone()], &x.0[1][b.clone()], &x.0[2][b]];
+    let (g, len, inv) = (&mut g[..m], &mut len[..m], &s.inv_rest[..m]);
+    // Lengths and ratios first, in SIMD ...
+    for i in 0..m {
+        let d = [xb[i] - xa[i], yb[i] - ya[i], zb[i] - za[i]];
+        len[i] = length_squared(d).sqrt();
+        g[i] = len[i] * inv[i];
+    }
+    // ... then the lookups.
+    table.g_in_place(g);
+}
+
+/// One stream: `pair = force(d, dv, L, i)·d` for every slot `i`, then
+/// `f[a] += pair`, `f[a + δ] −= pair` (two loops: the compiler cannot
+/// tell that one loop's two writes to `f` never overlap). `force` returns
+/// the force on `a` (N) per metre of `d = x_b − x_a`, 0 where the slot is
+/// empty.
+#[inline(always)]
+fn each(
+    s: &Stream,
+    x: &Soa,
+    v: &Soa,
+    pair: &mut Soa,
+    f: &mut Soa,
+    force: impl Fn([f32; 3], [f32; 3], f32, usize) -> f32,
+) {
+    let m = s.rest.len();
+    let (a, b) = (s.lo..s.lo + m, s.lo + s.delta..s.lo + s.delta + m);
+    let rest = &s.rest[..m];
+    let [xa, ya, za] = [&x.0[0][a.clone()], &x.0[1][a.clone()], &x.0[2][a.clone()]];
+    let [xb, yb, zb] = [&x.0[0][b.clone()], &x.0[1][b.clone()], &x.0[2][b.clone()]];
+    let va = [&v.0[0][a.clone()], &v.0[1][a.clone()], &v.0[2][a.clone()]];
+    let vb = [&v.0[0][b.clone()], &v.0[1][b.clone()], &v.0[2][b.clone()]];
+    let [px, py, pz] = &mut pair.0;
+    let (px, py, pz) = (&mut px[..m], &mut py[..m], &mut pz[..m]);
+    for i in 0..m {
+        let d = [xb[i] - xa[i], yb[i] - ya[i], zb[i] - za[i]];
+        let dv = [
+            vb[0][i] - va[0][i],
+            vb[1][i] - va[1][i],
+            vb[2][i] - va[2][i],
+        ];
+        let scale = force(d, dv, rest[i], i);
+        (px[i], py[i], pz[i]) = (d[0] * scale, d[1] * scale, d[2] * scale);
+    }
+    for (fc, pc) in f.0.iter_mut().zip(&pair.0) {
+        for (fa, &p) in fc[a.clone()].iter_mut().zip(&pc[..m]) {
+            *fa += p;
+        }
+        for (fb, &p) in fc[b.clone()].iter_mut().zip(&pc[..m]) {
+            *fb -= p;
+        }
+    }
+}
+
+/// `|d|²`.
+#[inline(always)]
+fn length_squared(d: [f32; 3]) -> f32 {
+    d[0] * d[0] + d[1] * d[1] + d[2] * d[2]
+}
+
+/// Type 1, per metre of `d`: `[k(ℓ − L) + k_d (v_ab·u)]/ℓ` while `ℓ ≥ L`.
+#[inline(always)]
+fn tension(d: [f32; 3], dv: [f32; 3], rest: f32, k: f32, kd: f32) -> f32 {
+    let len2 = length_squared(d);
+    let len = len2.sqrt();
+    let inv = 1.0 / len;
+    let rate = dv[0] * d[0] + dv[1] * d[1] + dv[2] * d[2];
+    let damping = if kd != 0.0 { kd * rate * inv } else { 0.0 };
+    let mag = k * (len - rest) + damping;
+    // An empty slot's NaN rest length fails the first test.
+    let taut = len2 >= rest * rest && len2 >= MIN_LENGTH * MIN_LENGTH;
+    if taut { mag * inv } else { 0.0 }
+}
+
+/// Type 2, per metre of `d`: `f_b*(ℓ)/ℓ` while `ℓ < L` ([`type2_magnitude`]),
+/// given `ℓ = |d|` (m), `1/L` (1/m) and `g = g(ℓ/L)` from the table.
+///
+/// [`type2_magnitude`]: super::choi_ko::type2_magnitude
+#[inline(always)]
+fn buckling(d: [f32; 3], rest: f32, len: f32, inv_rest: f32, g: f32, kb: f32, cb: f32) -> f32 {
+    let len2 = length_squared(d);
+    let fb = kb * (inv_rest * inv_rest) * g;
+    let linear = cb * (len - rest);
+    let mag = if linear > fb { linear } else { fb };
+    // An empty slot's NaN rest length fails the first test.
+    let compressed = len2 < rest * rest && len2 >= MIN_LENGTH * MIN_LENGTH;
+    if compressed { mag / len } else { 0.0 }
+}
+
+/// Lander's spring, per metre of `d`: `[k_s(ℓ − L) + k_d (v_ab·u)]/ℓ`.
+#[inline(always)]
+fn spring(d: [f32; 3], dv: [f32; 3], rest: f32, ks: f32, kd: f32) -> f32 {
+    let len2 = length_squared(d);
+    let len = len2.sqrt();
+    let inv = 1.0 / len;
+    let rate = dv[0] * d[0] + dv[1] * d[1] + dv[2] * d[2];
+    let damping = if kd != 0.0 { kd * rate * inv } else { 0.0 };
+    let mag = ks * (len - rest) + damping;
+    let live = !rest.is_nan() && len2 >= MIN_LENGTH * MIN_LENGTH;
+    if live { mag * inv } else { 0.0 }
+}
