@@ -39,8 +39,8 @@ pub fn internal_forces(
 }
 
 /// [`internal_forces`] with the grid families evaluated by index step
-/// ([`streams`]): the same forces, summed in another order, in about a
-/// third of the time on a 15×15 cloth.
+/// ([`streams`]): the same forces, summed in another order, in about half
+/// the time on a 15×15 cloth (6.6 → 3.0 µs).
 pub fn internal_forces_streamed(
     settings: &ClothSettings,
     connections: &ClothConnections,

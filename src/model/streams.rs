@@ -20,6 +20,8 @@
 //! The forces are the pair kernel's, evaluated with the same operations;
 //! only the order in which they are summed into each particle differs.
 
+use std::ops::Range;
+
 use bevy::math::Vec3;
 
 use super::choi_ko::{BucklingTable, MIN_LENGTH};
@@ -300,6 +302,20 @@ impl ForceStreams {
     }
 }
 
+impl Stream {
+    /// The particles at the lower and at the upper ends of the slots.
+    fn ends(&self) -> (Range<usize>, Range<usize>) {
+        let (lo, m) = (self.lo, self.rest.len());
+        (lo..lo + m, lo + self.delta..lo + self.delta + m)
+    }
+}
+
+/// The three component arrays of `x` over `range`.
+#[inline(always)]
+fn window<'a>(x: &'a Soa, range: &Range<usize>) -> [&'a [f32]; 3] {
+    std::array::from_fn(|c| &x.0[c][range.clone()])
+}
+
 /// Copies `src` into `dst` component by component.
 #[inline(always)]
 fn scatter(src: &[Vec3], dst: &mut Soa) {
@@ -314,9 +330,8 @@ fn scatter(src: &[Vec3], dst: &mut Soa) {
 #[inline(always)]
 fn table_values(s: &Stream, x: &Soa, table: &BucklingTable, g: &mut [f32], len: &mut [f32]) {
     let m = s.rest.len();
-    let (a, b) = (s.lo..s.lo + m, s.lo + s.delta..s.lo + s.delta + m);
-    let [xa, ya, za] = [&x.0[0][a.clone()], &x.0[1][a.clone()], &x.0[2][a]];
-    let [xb, yb, zb] = [&x.0[0][b.clone()], &x.0[1][b.clone()], &x.0[2][b]];
+    let (a, b) = s.ends();
+    let ([xa, ya, za], [xb, yb, zb]) = (window(x, &a), window(x, &b));
     let (g, len, inv) = (&mut g[..m], &mut len[..m], &s.inv_rest[..m]);
     // Lengths and ratios first, in SIMD ...
     for i in 0..m {
@@ -343,12 +358,10 @@ fn each(
     force: impl Fn([f32; 3], [f32; 3], f32, usize) -> f32,
 ) {
     let m = s.rest.len();
-    let (a, b) = (s.lo..s.lo + m, s.lo + s.delta..s.lo + s.delta + m);
+    let (a, b) = s.ends();
     let rest = &s.rest[..m];
-    let [xa, ya, za] = [&x.0[0][a.clone()], &x.0[1][a.clone()], &x.0[2][a.clone()]];
-    let [xb, yb, zb] = [&x.0[0][b.clone()], &x.0[1][b.clone()], &x.0[2][b.clone()]];
-    let va = [&v.0[0][a.clone()], &v.0[1][a.clone()], &v.0[2][a.clone()]];
-    let vb = [&v.0[0][b.clone()], &v.0[1][b.clone()], &v.0[2][b.clone()]];
+    let ([xa, ya, za], [xb, yb, zb]) = (window(x, &a), window(x, &b));
+    let (va, vb) = (window(v, &a), window(v, &b));
     let [px, py, pz] = &mut pair.0;
     let (px, py, pz) = (&mut px[..m], &mut py[..m], &mut pz[..m]);
     for i in 0..m {
