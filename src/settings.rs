@@ -259,7 +259,10 @@ pub enum Parallelism {
     /// implicit ones.
     Off,
     /// Bands for cloths of at least [`Parallelism::AUTO_MIN_PARTICLES`]
-    /// particles; smaller ones are cheaper on one thread.
+    /// particles when the compute pool has at least
+    /// [`Parallelism::AUTO_MIN_THREADS`] threads; otherwise one thread is
+    /// cheaper. The choice depends on the machine: use `Off` or `On` for
+    /// results that are bitwise the same on every machine.
     #[default]
     Auto,
     /// Bands for every grid cloth.
@@ -268,17 +271,27 @@ pub enum Parallelism {
 
 impl Parallelism {
     /// The cloth size (particles) from which [`Parallelism::Auto`] uses
-    /// bands: 128×128. On this project's 2-core machine the force streams
-    /// on one thread beat the bands on two at 64×64 (69–88 µs against
-    /// 104–110 µs), tie at 128×128 (about 310 µs each) and lose at 256×256
-    /// (1.6 ms against 1.25 ms).
+    /// bands, given [`AUTO_MIN_THREADS`](Self::AUTO_MIN_THREADS): 128×128,
+    /// below which each band's task costs more than its share of the work.
     pub const AUTO_MIN_PARTICLES: usize = 128 * 128;
 
-    /// Whether a cloth of `particles` particles is evaluated in bands.
-    pub fn banded(self, particles: usize) -> bool {
+    /// The compute-pool threads from which [`Parallelism::Auto`] uses
+    /// bands: 4. The bands run the link-by-link pair kernel, which costs
+    /// 2.7 times as much per link as the single-threaded force streams
+    /// (128×128: 529 against 194 µs), so they need three threads to break
+    /// even. On this project's 2-core machine the streams on one thread
+    /// beat the bands on two at every size measured (256×256: 1.07 against
+    /// 1.62 ms). The figure of 4 is that estimate, not a measurement.
+    pub const AUTO_MIN_THREADS: usize = 4;
+
+    /// Whether a cloth of `particles` particles is evaluated in bands when
+    /// the compute pool has `threads` threads.
+    pub fn banded(self, particles: usize, threads: usize) -> bool {
         match self {
             Self::Off => false,
-            Self::Auto => particles >= Self::AUTO_MIN_PARTICLES,
+            Self::Auto => {
+                particles >= Self::AUTO_MIN_PARTICLES && threads >= Self::AUTO_MIN_THREADS
+            }
             Self::On => true,
         }
     }

@@ -44,6 +44,31 @@ impl Soa {
         }
     }
 
+    /// Adds a stream of pair values to both ends of each pair: `p_i` to
+    /// vector `start + i` and `−p_i` to vector `start + i + δ`, for
+    /// `i < m`. One pass over the vectors the pairs touch, each getting
+    /// `p_j − p_{j−δ}` (a term only where its index is below `m`).
+    /// Inlined so that it runs in its caller's SIMD width.
+    #[inline(always)]
+    pub fn add_pairs(&mut self, start: usize, delta: usize, p: &Soa, m: usize) {
+        let (head, tail) = (delta.min(m), delta.max(m));
+        for (c, p) in self.0.iter_mut().zip(&p.0) {
+            let (c, p) = (&mut c[start..start + m + delta], &p[..m]);
+            for (c, &p) in c[..head].iter_mut().zip(p) {
+                *c += p;
+            }
+            if delta < m {
+                let (c, now, before) = (&mut c[delta..m], &p[delta..], &p[..m - delta]);
+                for ((c, &p), &q) in c.iter_mut().zip(now).zip(before) {
+                    *c += p - q;
+                }
+            }
+            for (c, &q) in c[tail..].iter_mut().zip(&p[tail - delta..]) {
+                *c -= q;
+            }
+        }
+    }
+
     /// Zeroes the vectors of pinned particles (`free[i] == 0`).
     pub fn filter(&mut self, free: &[f32]) {
         for c in &mut self.0 {

@@ -158,11 +158,13 @@ pub fn step_cloth_with(
         inverse_masses,
         external,
     };
+    // The connections cannot change during the step: compare them once.
+    integrate::sync(settings.integrator, &dynamics, n, buffers);
     for k in 0..substeps {
         if contacts.is_some() {
             buffers.substep_start.copy_from_slice(positions);
         }
-        integrate::step(
+        integrate::step_synced(
             settings.integrator,
             &dynamics,
             positions,

@@ -103,13 +103,31 @@ pub fn step(
     dt: f32,
     buffers: &mut StepBuffers,
 ) {
+    sync(integrator, dynamics, x.len(), buffers);
+    step_synced(integrator, dynamics, x, v, dt, buffers);
+}
+
+/// Brings the force streams of an explicit integrator up to date with the
+/// connections of `dynamics`, for `n` particles.
+pub(crate) fn sync(integrator: Integrator, dynamics: &Dynamics, n: usize, b: &mut StepBuffers) {
+    if !integrator.is_implicit() {
+        dynamics.sync_streams(&mut b.streams, n);
+    }
+}
+
+/// [`step`] after a [`sync`] since the connections last changed: the
+/// connections are compared once per fixed step, not once per substep.
+pub(crate) fn step_synced(
+    integrator: Integrator,
+    dynamics: &Dynamics,
+    x: &mut [Vec3],
+    v: &mut [Vec3],
+    dt: f32,
+    buffers: &mut StepBuffers,
+) {
     // Taken out for the step so that `accel` may borrow it while the
     // integrators borrow the other buffers.
     let mut streams = std::mem::take(&mut buffers.streams);
-    if !integrator.is_implicit() {
-        // The connections cannot change during the step: compare them once.
-        dynamics.sync_streams(&mut streams, x.len());
-    }
     let accel = |x: &[Vec3], v: &[Vec3], a: &mut [Vec3]| {
         dynamics.accelerations_synced(&mut streams, x, v, a)
     };

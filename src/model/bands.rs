@@ -45,6 +45,11 @@ pub fn internal_forces_banded(
     banded_on(pool, settings, connections, x, v, f)
 }
 
+/// Threads of Bevy's compute task pool (1 without one).
+pub fn pool_threads() -> usize {
+    ComputeTaskPool::try_get().map_or(1, |p| p.thread_num())
+}
+
 /// [`internal_forces_banded`] on `pool`, or on this thread for `None`.
 fn banded_on(
     pool: Option<&TaskPool>,

@@ -72,6 +72,9 @@ pub struct BucklingTable {
     /// is part of the type, so lookups need no bounds check and the force
     /// streams' loops vectorise.
     entries: Box<[[f32; 2]; TABLE_INTERVALS + 1]>,
+    /// `[g(s_k), g(s_{k+1})]` for `k = 0..1024`: the two ends of each
+    /// interval side by side, so one 64-bit gather fetches both.
+    ends: Box<[[f32; 2]; TABLE_INTERVALS]>,
 }
 
 /// The shared table, built on first use (1025 bisections, well under 1 ms).
@@ -85,7 +88,8 @@ impl BucklingTable {
             let (g, dg) = g_of_theta(inverse_sinc(s));
             [g as f32, dg as f32]
         }));
-        Self { entries }
+        let ends = Box::new(std::array::from_fn(|k| [entries[k][0], entries[k + 1][0]]));
+        Self { entries, ends }
     }
 
     /// `(g(s), g'(s))` for `s = ℓ/L`, clamped to `[0, 1]`.
@@ -101,8 +105,10 @@ impl BucklingTable {
     }
 
     /// Replaces every `s` in `values` by `g(s)`, as [`g`](Self::g) does
-    /// (except that NaN gives `g(0)`), eight at a time with AVX2's gathers
-    /// where the CPU has them: the compiler does not vectorise the lookup.
+    /// (except that NaN gives `g(0)` or `g(1)`), eight at a time with AVX2's
+    /// gathers where the CPU has them: the compiler does not vectorise the
+    /// lookup. Eight values that are all at least 1 (links that are not
+    /// compressed, the common case) skip the gathers.
     pub fn g_in_place(&self, values: &mut [f32]) {
         #[cfg(target_arch = "x86_64")]
         if std::arch::is_x86_feature_detected!("avx2") {
@@ -118,28 +124,42 @@ impl BucklingTable {
     #[target_feature(enable = "avx2")]
     fn g_in_place_avx2(&self, values: &mut [f32]) {
         use std::arch::x86_64::*;
-        let base = self.entries.as_ptr().cast::<f32>();
+        let base = self.ends.as_ptr().cast::<f64>();
         let (zero, one) = (_mm256_setzero_ps(), _mm256_set1_ps(1.0));
         let intervals = _mm256_set1_ps(TABLE_INTERVALS as f32);
         let last = _mm256_set1_epi32(TABLE_INTERVALS as i32 - 1);
+        let at_one = _mm256_set1_ps(self.g(1.0));
         let mut chunks = values.chunks_exact_mut(8);
         for chunk in &mut chunks {
             // SAFETY: the chunk holds eight f32.
             let s = unsafe { _mm256_loadu_ps(chunk.as_ptr()) };
+            // g is constant from s = 1 on (NaN counts as at least 1 here).
+            if _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LT_OQ>(s, one)) == 0 {
+                // SAFETY: as for the load.
+                unsafe { _mm256_storeu_ps(chunk.as_mut_ptr(), at_one) };
+                continue;
+            }
             // `max` returns its second operand for NaN: NaN becomes 0.
             let x = _mm256_mul_ps(_mm256_min_ps(_mm256_max_ps(s, zero), one), intervals);
             let k = _mm256_min_epi32(_mm256_cvttps_epi32(x), last);
             let t = _mm256_sub_ps(x, _mm256_cvtepi32_ps(k));
-            // Entry k is the pair of f32 at 2k, 2k + 1; 0 ≤ k ≤ 1023.
-            let at = _mm256_slli_epi32::<1>(k);
-            // SAFETY: the gathers read f32 number 2k and 2k + 2 of the
-            // table's 2·1025, with 0 ≤ k ≤ 1023.
-            let (g0, g1) = unsafe {
+            // Lanes 0, 1, 4, 5 in the low half and 2, 3, 6, 7 in the high
+            // one, so that the shuffle below puts the values back in order.
+            let k = _mm256_permutevar8x32_epi32(k, _mm256_setr_epi32(0, 1, 4, 5, 2, 3, 6, 7));
+            // SAFETY: each gather reads four of the 1024 pairs `ends[k]`,
+            // with 0 ≤ k ≤ 1023.
+            let (p, q) = unsafe {
                 (
-                    _mm256_i32gather_ps::<4>(base, at),
-                    _mm256_i32gather_ps::<4>(base.add(2), at),
+                    _mm256_castpd_ps(_mm256_i32gather_pd::<8>(base, _mm256_castsi256_si128(k))),
+                    _mm256_castpd_ps(_mm256_i32gather_pd::<8>(
+                        base,
+                        _mm256_extracti128_si256::<1>(k),
+                    )),
                 )
             };
+            // (g_k, g_k+1) pairs of lanes 0 1 4 5 in p, 2 3 6 7 in q.
+            let g0 = _mm256_shuffle_ps::<0b10_00_10_00>(p, q);
+            let g1 = _mm256_shuffle_ps::<0b11_01_11_01>(p, q);
             let g = _mm256_add_ps(g0, _mm256_mul_ps(t, _mm256_sub_ps(g1, g0)));
             // SAFETY: as for the load.
             unsafe { _mm256_storeu_ps(chunk.as_mut_ptr(), g) };

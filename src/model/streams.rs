@@ -35,6 +35,11 @@ const MAX_STREAMS: usize = 4;
 /// A step gets a stream only if at least this many links share it.
 const MIN_STREAM_LINKS: usize = 8;
 
+/// Every loop over a stream runs a multiple of this many slots (the widest
+/// SIMD vector, AVX-512's sixteen `f32`), so none needs a scalar tail: the
+/// streams are padded with empty slots, the component arrays with zeros.
+const LANES: usize = 16;
+
 /// Per-cloth cache and scratch of the streamed force evaluation
 /// ([`pair_forces`](Self::pair_forces)). Holds about three times the
 /// memory of the link lists it was built from.
@@ -46,7 +51,8 @@ pub struct ForceStreams {
     x: Soa,
     v: Soa,
     f: Soa,
-    /// The force (N) on the lower particle of each pair of one stream.
+    /// The force (N) on the lower particle of each pair of one stream,
+    /// slot `i` at `guard + i`, with zeros on either side.
     pair: Soa,
     /// `g(ℓ/L)` (dimensionless) and `ℓ` (m) of each pair of one Type 2 stream.
     g: Vec<f32>,
@@ -65,7 +71,8 @@ struct FamilyStreams {
     others: Vec<Link>,
 }
 
-/// The links `(a, a + delta)` of one family for `a` in `lo..lo + rest.len()`.
+/// The links `(a, a + delta)` of one family for `a` in `lo..lo + rest.len()`
+/// (a multiple of [`LANES`] slots).
 #[derive(Clone, Debug)]
 struct Stream {
     delta: usize,
@@ -111,7 +118,7 @@ impl FamilyStreams {
                 self.streams.push(Stream {
                     delta,
                     lo,
-                    rest: vec![f32::NAN; hi - lo],
+                    rest: vec![f32::NAN; (hi - lo).next_multiple_of(LANES)],
                     inv_rest: Vec::new(),
                 });
             }
@@ -188,29 +195,61 @@ impl ForceStreams {
         v: &[Vec3],
         out: &mut [Vec3],
     ) {
-        let damped = families.iter().any(|(_, law)| match *law {
-            Law::Tension { kd, .. } | Law::Spring { kd, .. } => kd != 0.0,
-            Law::Buckling { .. } => false,
-        });
-        #[cfg(target_arch = "x86_64")]
-        if std::arch::is_x86_feature_detected!("avx512f") {
-            // SAFETY: the CPU has AVX-512F, as checked on the line above.
-            unsafe { self.streamed_avx512(families, x, v, damped, out) };
-        } else if std::arch::is_x86_feature_detected!("avx2") {
-            // SAFETY: the CPU has AVX2, as checked on the line above.
-            unsafe { self.streamed_avx2(families, x, v, damped, out) };
-        } else {
-            self.streamed(families, x, v, damped, out);
-        }
-        #[cfg(not(target_arch = "x86_64"))]
-        self.streamed(families, x, v, damped, out);
+        let damped = damped(families);
+        self.others(families, x, v, out);
+        self.dispatch(families, x, v, damped, None, out);
+    }
 
+    /// Turns the forces (N) in `out` into accelerations (m/s²) after adding
+    /// every family's forces, as [`Dynamics::accelerations`] does:
+    /// `a_i = w_i (out_i + F_i) + g − c·v_i`, 0 where `w_i = 0`, formed in
+    /// the component arrays, so it vectorises.
+    ///
+    /// [`Dynamics::accelerations`]: super::Dynamics::accelerations
+    pub(crate) fn accelerations_synced(
+        &mut self,
+        families: &[(&[Link], Law)],
+        x: &[Vec3],
+        v: &[Vec3],
+        accel: &Accel,
+        out: &mut [Vec3],
+    ) {
+        self.others(families, x, v, out);
+        self.dispatch(families, x, v, damped(families), Some(accel), out);
+    }
+
+    /// The forces of the links that fit no stream, added to `out`.
+    fn others(&self, families: &[(&[Link], Law)], x: &[Vec3], v: &[Vec3], out: &mut [Vec3]) {
         let mut target = Target { f: out, base: 0 };
         for (cache, &(_, law)) in self.families.iter().zip(families) {
             if !cache.others.is_empty() {
                 kernel::pair_forces(&[(&cache.others, law)], x, v, &mut target);
             }
         }
+    }
+
+    /// [`Self::streamed`] in the widest SIMD the CPU has.
+    fn dispatch(
+        &mut self,
+        families: &[(&[Link], Law)],
+        x: &[Vec3],
+        v: &[Vec3],
+        damped: bool,
+        accel: Option<&Accel>,
+        out: &mut [Vec3],
+    ) {
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx512f") {
+            // SAFETY: the CPU has AVX-512F, as checked on the line above.
+            unsafe { self.streamed_avx512(families, x, v, damped, accel, out) };
+        } else if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: the CPU has AVX2, as checked on the line above.
+            unsafe { self.streamed_avx2(families, x, v, damped, accel, out) };
+        } else {
+            self.streamed(families, x, v, damped, accel, out);
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        self.streamed(families, x, v, damped, accel, out);
     }
 
     /// [`Self::streamed`] compiled for AVX-512's sixteen-lane vectors: 12 %
@@ -223,9 +262,10 @@ impl ForceStreams {
         x: &[Vec3],
         v: &[Vec3],
         damped: bool,
+        accel: Option<&Accel>,
         out: &mut [Vec3],
     ) {
-        self.streamed(families, x, v, damped, out);
+        self.streamed(families, x, v, damped, accel, out);
     }
 
     /// [`Self::streamed`] compiled for AVX2's eight-lane vectors.
@@ -237,12 +277,14 @@ impl ForceStreams {
         x: &[Vec3],
         v: &[Vec3],
         damped: bool,
+        accel: Option<&Accel>,
         out: &mut [Vec3],
     ) {
-        self.streamed(families, x, v, damped, out);
+        self.streamed(families, x, v, damped, accel, out);
     }
 
-    /// The streams' forces, added to `out`.
+    /// The streams' forces, added to `out`, which then becomes the
+    /// accelerations if `accel` is given.
     #[inline(always)]
     fn streamed(
         &mut self,
@@ -250,6 +292,7 @@ impl ForceStreams {
         x: &[Vec3],
         v: &[Vec3],
         damped: bool,
+        accel: Option<&Accel>,
         out: &mut [Vec3],
     ) {
         let n = x.len();
@@ -262,51 +305,113 @@ impl ForceStreams {
             g,
             len,
         } = self;
-        for s in [&mut *xs, &mut *vs, &mut *f, &mut *pair] {
-            s.resize(n);
+        // The farthest particle index any stream's loops touch, the largest
+        // step and the most slots.
+        let (mut span, mut guard, mut longest) = (n, 0, 0);
+        for s in caches.iter().flat_map(|c| &c.streams) {
+            span = span.max(s.lo + s.padded_span());
+            guard = guard.max(s.delta);
+            longest = longest.max(s.rest.len());
         }
-        g.resize(n, 0.0);
-        len.resize(n, 0.0);
+        for s in [&mut *xs, &mut *vs, &mut *f] {
+            s.resize(span);
+        }
+        pair.resize(2 * guard + longest + LANES);
+        g.resize(longest, 0.0);
+        len.resize(longest, 0.0);
         scatter(x, xs);
-        if damped {
+        // Velocities are read by damped laws and by the accelerations.
+        let read_v = damped || accel.is_some();
+        if read_v {
             scatter(v, vs);
         }
-        f.zero();
+        // The forces start from what `out` holds; padding particles at 0.
+        scatter(out, f);
+        for c in &mut f.0 {
+            c[n..].fill(0.0);
+        }
         // Undamped laws never read velocities: hand them the positions.
-        let vs = if damped { &*vs } else { &*xs };
+        let vs = if read_v { &*vs } else { &*xs };
         for (cache, &(_, law)) in caches.iter().zip(families) {
             for s in &cache.streams {
                 match law {
-                    Law::Tension { k, kd } => {
-                        each(s, xs, vs, pair, f, |d, dv, r, _| tension(d, dv, r, k, kd))
-                    }
+                    Law::Tension { k, kd } => each(s, xs, vs, guard, pair, f, |d, dv, r, _| {
+                        tension(d, dv, r, k, kd)
+                    }),
                     Law::Buckling { table, kb, cb } => {
                         // The table lookup does not vectorise: give it a
                         // loop of its own, between two that do.
-                        let m = s.rest.len();
+                        let m = s.slots();
                         table_values(s, xs, table, &mut g[..m], &mut len[..m]);
                         let (g, len, inv) = (&g[..m], &len[..m], &s.inv_rest[..m]);
-                        each(s, xs, vs, pair, f, |d, _, r, i| {
+                        each(s, xs, vs, guard, pair, f, |d, _, r, i| {
                             buckling(d, r, len[i], inv[i], g[i], kb, cb)
                         });
                     }
-                    Law::Spring { ks, kd } => {
-                        each(s, xs, vs, pair, f, |d, dv, r, _| spring(d, dv, r, ks, kd))
-                    }
+                    Law::Spring { ks, kd } => each(s, xs, vs, guard, pair, f, |d, dv, r, _| {
+                        spring(d, dv, r, ks, kd)
+                    }),
                 }
             }
         }
-        for (i, o) in out.iter_mut().enumerate() {
-            *o += f.get(i);
+        if let Some(&Accel {
+            inverse_masses,
+            gravity,
+            damping,
+        }) = accel
+        {
+            // Component by component, in SIMD.
+            let w = &inverse_masses[..n];
+            for ((fc, vc), g) in f.0.iter_mut().zip(&vs.0).zip(gravity.to_array()) {
+                for ((a, &v), &w) in fc[..n].iter_mut().zip(&vc[..n]).zip(w) {
+                    *a = if w == 0.0 {
+                        0.0
+                    } else {
+                        w * *a + g - damping * v
+                    };
+                }
+            }
         }
+        gather(f, out);
     }
+}
+
+/// What turns forces into accelerations
+/// ([`ForceStreams::accelerations_synced`]).
+pub(crate) struct Accel<'a> {
+    /// Inverse mass of each particle (1/kg), 0 for a pinned one.
+    pub inverse_masses: &'a [f32],
+    /// Gravity (m/s²).
+    pub gravity: Vec3,
+    /// Absolute damping rate `c` (1/s).
+    pub damping: f32,
+}
+
+/// Whether any of the laws reads velocities.
+fn damped(families: &[(&[Link], Law)]) -> bool {
+    families.iter().any(|(_, law)| match *law {
+        Law::Tension { kd, .. } | Law::Spring { kd, .. } => kd != 0.0,
+        Law::Buckling { .. } => false,
+    })
 }
 
 impl Stream {
     /// The particles at the lower and at the upper ends of the slots.
     fn ends(&self) -> (Range<usize>, Range<usize>) {
-        let (lo, m) = (self.lo, self.rest.len());
+        let (lo, m) = (self.lo, self.slots());
         (lo..lo + m, lo + self.delta..lo + self.delta + m)
+    }
+
+    /// The number of slots, a multiple of [`LANES`] (so said to the compiler).
+    #[inline(always)]
+    fn slots(&self) -> usize {
+        self.rest.len() / LANES * LANES
+    }
+
+    /// How many particles from `lo` on the stream's loops touch: both ends
+    /// of every slot, rounded up to [`LANES`].
+    fn padded_span(&self) -> usize {
+        (self.slots() + self.delta).next_multiple_of(LANES)
     }
 }
 
@@ -325,11 +430,20 @@ fn scatter(src: &[Vec3], dst: &mut Soa) {
     }
 }
 
+/// Copies the first `dst.len()` vectors of `src` into `dst`.
+#[inline(always)]
+fn gather(src: &Soa, dst: &mut [Vec3]) {
+    let [x, y, z] = &src.0;
+    for (((p, &x), &y), &z) in dst.iter_mut().zip(x).zip(y).zip(z) {
+        *p = Vec3::new(x, y, z);
+    }
+}
+
 /// `ℓ` (m) and `g(ℓ/L)` of every slot of a Type 2 stream into `len` and
 /// `g` (garbage in empty slots, which [`buckling`] ignores).
 #[inline(always)]
 fn table_values(s: &Stream, x: &Soa, table: &BucklingTable, g: &mut [f32], len: &mut [f32]) {
-    let m = s.rest.len();
+    let m = s.slots();
     let (a, b) = s.ends();
     let ([xa, ya, za], [xb, yb, zb]) = (window(x, &a), window(x, &b));
     let (g, len, inv) = (&mut g[..m], &mut len[..m], &s.inv_rest[..m]);
@@ -344,8 +458,9 @@ fn table_values(s: &Stream, x: &Soa, table: &BucklingTable, g: &mut [f32], len: 
 }
 
 /// One stream: `pair = force(d, dv, L, i)·d` for every slot `i`, then
-/// `f[a] += pair`, `f[a + δ] −= pair` (two loops: the compiler cannot
-/// tell that one loop's two writes to `f` never overlap). `force` returns
+/// `f[a] += pair`, `f[a + δ] −= pair` in a second loop (writing both ends
+/// in the first does not vectorise, as the two writes may overlap). `force`
+/// returns
 /// the force on `a` (N) per metre of `d = x_b − x_a`, 0 where the slot is
 /// empty.
 #[inline(always)]
@@ -353,17 +468,23 @@ fn each(
     s: &Stream,
     x: &Soa,
     v: &Soa,
+    guard: usize,
     pair: &mut Soa,
     f: &mut Soa,
     force: impl Fn([f32; 3], [f32; 3], f32, usize) -> f32,
 ) {
-    let m = s.rest.len();
+    let m = s.slots();
     let (a, b) = s.ends();
     let rest = &s.rest[..m];
     let ([xa, ya, za], [xb, yb, zb]) = (window(x, &a), window(x, &b));
     let (va, vb) = (window(v, &a), window(v, &b));
     let [px, py, pz] = &mut pair.0;
-    let (px, py, pz) = (&mut px[..m], &mut py[..m], &mut pz[..m]);
+    let slots = guard..guard + m;
+    let (px, py, pz) = (
+        &mut px[slots.clone()],
+        &mut py[slots.clone()],
+        &mut pz[slots],
+    );
     for i in 0..m {
         let d = [xb[i] - xa[i], yb[i] - ya[i], zb[i] - za[i]];
         let dv = [
@@ -374,12 +495,16 @@ fn each(
         let scale = force(d, dv, rest[i], i);
         (px[i], py[i], pz[i]) = (d[0] * scale, d[1] * scale, d[2] * scale);
     }
-    for (fc, pc) in f.0.iter_mut().zip(&pair.0) {
-        for (fa, &p) in fc[a.clone()].iter_mut().zip(&pc[..m]) {
-            *fa += p;
-        }
-        for (fb, &p) in fc[b.clone()].iter_mut().zip(&pc[..m]) {
-            *fb -= p;
+    // f[lo + j] += p[j] − p[j − δ] over the particles the stream touches,
+    // with p = 0 outside the slots: one pass, both ends of every pair.
+    let (delta, width) = (s.delta, s.padded_span());
+    for (fc, pc) in f.0.iter_mut().zip(&mut pair.0) {
+        pc[guard - delta..guard].fill(0.0);
+        pc[guard + m..guard + width].fill(0.0);
+        let fc = &mut fc[s.lo..s.lo + width];
+        let (now, before) = (&pc[guard..guard + width], &pc[guard - delta..]);
+        for ((fj, &p), &q) in fc.iter_mut().zip(now).zip(before) {
+            *fj += p - q;
         }
     }
 }

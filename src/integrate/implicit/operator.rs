@@ -201,10 +201,20 @@ impl Operator {
     /// `out = A d` (filtered: pinned rows zero).
     pub fn apply(&mut self, d: &Soa, out: &mut Soa) {
         #[cfg(target_arch = "x86_64")]
-        if std::arch::is_x86_feature_detected!("avx2") {
+        if std::arch::is_x86_feature_detected!("avx512f") {
+            // SAFETY: the CPU has AVX-512F, as checked on the line above.
+            return unsafe { self.apply_avx512(d, out) };
+        } else if std::arch::is_x86_feature_detected!("avx2") {
             // SAFETY: the CPU has AVX2, as checked on the line above.
             return unsafe { self.apply_avx2(d, out) };
         }
+        self.apply_portable(d, out);
+    }
+
+    /// [`Operator::apply`] compiled for AVX-512's sixteen-lane vectors.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f")]
+    fn apply_avx512(&mut self, d: &Soa, out: &mut Soa) {
         self.apply_portable(d, out);
     }
 
@@ -227,15 +237,8 @@ impl Operator {
         for (&delta, blocks) in self.deltas.iter().zip(&self.streams) {
             let m = n - delta;
             stream_product(blocks, d, delta, m, &mut self.tmp);
-            // t_p = C(d_{p+δ} − d_p): out_p −= t_p, out_{p+δ} += t_p.
-            for (o, t) in out.0.iter_mut().zip(&self.tmp.0) {
-                for (o, t) in o[..m].iter_mut().zip(&t[..m]) {
-                    *o -= t;
-                }
-                for (o, t) in o[delta..].iter_mut().zip(&t[..m]) {
-                    *o += t;
-                }
-            }
+            // t_p = C(d_p − d_{p+δ}): out_p += t_p, out_{p+δ} −= t_p.
+            out.add_pairs(0, delta, &self.tmp, m);
         }
         for &([p, q], c) in &self.others {
             let (p, q) = (p as usize, q as usize);
@@ -297,7 +300,7 @@ fn sym_times(c: &[f32; 6], v: Vec3) -> Vec3 {
     )
 }
 
-/// `t_p = C_p (d_{p+δ} − d_p)` for `p < m`, into `t`.
+/// `t_p = C_p (d_p − d_{p+δ})` for `p < m`, into `t`.
 #[inline(always)]
 fn stream_product(c: &SymBlocks, d: &Soa, delta: usize, m: usize, t: &mut Soa) {
     let [cxx, cyy, czz, cxy, cxz, cyz] = &c.0;
@@ -313,7 +316,7 @@ fn stream_product(c: &SymBlocks, d: &Soa, delta: usize, m: usize, t: &mut Soa) {
     let [tx, ty, tz] = &mut t.0;
     let (tx, ty, tz) = (&mut tx[..m], &mut ty[..m], &mut tz[..m]);
     for p in 0..m {
-        let (ex, ey, ez) = (bx[p] - ax[p], by[p] - ay[p], bz[p] - az[p]);
+        let (ex, ey, ez) = (ax[p] - bx[p], ay[p] - by[p], az[p] - bz[p]);
         tx[p] = cxx[p] * ex + cxy[p] * ey + cxz[p] * ez;
         ty[p] = cxy[p] * ex + cyy[p] * ey + cyz[p] * ez;
         tz[p] = cxz[p] * ex + cyz[p] * ey + czz[p] * ez;
