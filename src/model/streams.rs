@@ -84,7 +84,9 @@ struct Stream {
 }
 
 impl FamilyStreams {
-    /// Rebuilds the streams unless `links` and `n` are what they were built from.
+    /// Rebuilds the streams unless `links` and `n` are what they were built
+    /// from, reusing their memory (a crease that changes every step
+    /// rebuilds every step without allocating, once the streams have grown).
     fn sync(&mut self, links: &[Link], n: usize) {
         if self.particles == n && same_links(&self.source, links) {
             return;
@@ -93,36 +95,50 @@ impl FamilyStreams {
         self.source.clear();
         self.source.extend_from_slice(links);
         self.others.clear();
-        self.streams.clear();
 
-        // The most common steps, with the range of lower ends of each.
-        let mut steps: Vec<(usize, usize, usize, usize)> = Vec::new(); // (δ, count, lo, hi)
+        // The most common steps, with the range of lower ends of each:
+        // (δ, count, lo, hi).
+        let mut steps = [(0, 0, 0, 0); 4 * MAX_STREAMS];
+        let mut found = 0;
         for l in links {
             let (a, b) = ordered(l);
             if b >= n || a == b {
                 continue;
             }
             let delta = b - a;
-            if let Some(s) = steps.iter_mut().find(|s| s.0 == delta) {
+            if let Some(s) = steps[..found].iter_mut().find(|s| s.0 == delta) {
                 s.1 += 1;
                 s.2 = s.2.min(a);
                 s.3 = s.3.max(a + 1);
-            } else if steps.len() < 4 * MAX_STREAMS {
+            } else if found < steps.len() {
                 // Steps beyond the first few are rare; they go to `others`.
-                steps.push((delta, 1, a, a + 1));
+                steps[found] = (delta, 1, a, a + 1);
+                found += 1;
             }
         }
-        steps.sort_by(|p, q| q.1.cmp(&p.1).then(p.0.cmp(&q.0)));
-        for &(delta, count, lo, hi) in steps.iter().take(MAX_STREAMS) {
-            if count >= MIN_STREAM_LINKS {
+        let steps = &mut steps[..found];
+        steps.sort_unstable_by(|p, q| q.1.cmp(&p.1).then(p.0.cmp(&q.0)));
+        let chosen = steps
+            .iter()
+            .take(MAX_STREAMS)
+            .filter(|s| s.1 >= MIN_STREAM_LINKS);
+        let mut count = 0;
+        for (k, &(delta, _, lo, hi)) in chosen.enumerate() {
+            if k == self.streams.len() {
                 self.streams.push(Stream {
                     delta,
                     lo,
-                    rest: vec![f32::NAN; (hi - lo).next_multiple_of(LANES)],
+                    rest: Vec::new(),
                     inv_rest: Vec::new(),
                 });
             }
+            let s = &mut self.streams[k];
+            (s.delta, s.lo) = (delta, lo);
+            s.rest.clear();
+            s.rest.resize((hi - lo).next_multiple_of(LANES), f32::NAN);
+            count = k + 1;
         }
+        self.streams.truncate(count);
 
         for l in links {
             let (a, b) = ordered(l);
@@ -138,7 +154,8 @@ impl FamilyStreams {
             }
         }
         for s in &mut self.streams {
-            s.inv_rest = s.rest.iter().map(|r| 1.0 / r).collect();
+            s.inv_rest.clear();
+            s.inv_rest.extend(s.rest.iter().map(|r| 1.0 / r));
         }
     }
 }
