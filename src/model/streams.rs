@@ -6,19 +6,22 @@
 //! family into *streams*, one per common step, holding the rest length of
 //! the link `(a, a + δ)` at index `a` (NaN where there is none). A stream's
 //! forces are then plain loops over contiguous arrays of positions and
-//! velocities stored component by component ([`Soa`]), with no index lists
-//! and no branches, which the compiler turns into eight-lane SIMD; links
-//! with any other step go through the pair kernel ([`kernel`]).
+//! velocities stored component by component (`Soa`), with no index lists,
+//! no branches and no scalar tails (streams are padded to a multiple of
+//! sixteen slots), which the compiler turns into sixteen- or eight-lane
+//! SIMD; links with any other step go through the pair kernel ([`kernel`]).
 //!
-//! The streams are a cache of the link lists: every evaluation first
-//! compares each family with the copy the streams were built from (one
-//! linear pass over the links, cheap next to the forces) and rebuilds them
-//! if anything changed, so a crease that shortens rest lengths in place is
-//! seen at once. Nothing assumes the links form a grid; a family whose
-//! steps are all different simply goes through the pair kernel.
+//! The streams are a cache of the link lists: [`ForceStreams::pair_forces`]
+//! first compares each family with the copy the streams were built from
+//! (one `memcmp`, cheap next to the forces; the integrators do it once per
+//! fixed step) and rebuilds them in place if anything changed, so a crease
+//! that shortens rest lengths in place is seen at once. Nothing assumes the
+//! links form a grid; a family whose steps are all different simply goes
+//! through the pair kernel.
 //!
-//! The forces are the pair kernel's, evaluated with the same operations;
-//! only the order in which they are summed into each particle differs.
+//! The forces are the pair kernel's, evaluated with the same operations
+//! except that `ℓ/L` is a product with a stored `1/L`; only the order in
+//! which they are summed into each particle differs.
 
 use std::ops::Range;
 
