@@ -151,6 +151,7 @@ mod tests {
     use super::*;
     use crate::connections::Link;
     use crate::model::internal_forces;
+    use crate::model::tests::relative_difference;
     use crate::settings::ClothModel;
     use bevy::tasks::TaskPoolBuilder;
 
@@ -196,12 +197,6 @@ mod tests {
         s
     }
 
-    fn max_relative_difference(a: &[Vec3], b: &[Vec3]) -> f32 {
-        let scale = a.iter().map(|f| f.length()).fold(0.0, f32::max);
-        let diff = a.iter().zip(b).map(|(p, q)| (*p - *q).length());
-        diff.fold(0.0, f32::max) / scale
-    }
-
     #[test]
     fn bands_give_the_serial_forces_on_a_non_square_grid() {
         // 37 columns × 61 rows: 8 bands, windows cut mid-row.
@@ -213,7 +208,7 @@ mod tests {
             internal_forces(&s, &conn, &x, &v, &mut serial);
             let mut banded = vec![Vec3::ZERO; x.len()];
             assert!(banded_on(Some(&pool), &s, &conn, &x, &v, &mut banded));
-            let diff = max_relative_difference(&serial, &banded);
+            let diff = relative_difference(&serial, &banded);
             assert!(diff < 1e-5, "{model:?}: {diff}");
         }
     }
@@ -238,7 +233,7 @@ mod tests {
         // test above shows that the comparison can fail.
         let mut serial = vec![Vec3::ZERO; x.len()];
         internal_forces(&s, &conn, &x, &v, &mut serial);
-        assert!(max_relative_difference(&serial, &one) < 1e-5);
+        assert!(relative_difference(&serial, &one) < 1e-5);
     }
 
     #[test]
@@ -273,6 +268,6 @@ mod tests {
         };
         let mut a = vec![Vec3::ZERO; x.len()];
         d.accelerations(&x, &v, &mut a);
-        assert!(max_relative_difference(&serial, &a) < 1e-5);
+        assert!(relative_difference(&serial, &a) < 1e-5);
     }
 }

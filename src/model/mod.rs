@@ -303,13 +303,20 @@ mod tests {
         }
     }
 
-    #[test]
-    fn internal_forces_sum_to_zero_on_a_random_deformed_grid() {
-        let (n, h) = (9u32, 0.1f32);
+    /// Rest positions (m) of a flat `n × n` grid of spacing `h` (m), and
+    /// its connections.
+    fn flat_grid(n: u32, h: f32) -> (Vec<Vec3>, ClothConnections) {
         let rest: Vec<Vec3> = (0..n * n)
             .map(|p| Vec3::new((p % n) as f32 * h, 0.0, (p / n) as f32 * h))
             .collect();
         let conn = ClothConnections::grid(n, n, &rest);
+        (rest, conn)
+    }
+
+    #[test]
+    fn internal_forces_sum_to_zero_on_a_random_deformed_grid() {
+        let h = 0.1;
+        let (rest, conn) = flat_grid(9, h);
         let mut rng = Rng(0x9e37_79b9_7f4a_7c15);
         // Perturb by up to half a spacing so links are both stretched and compressed.
         let x: Vec<Vec3> = rest.iter().map(|&p| p + rng.vec(0.5 * h)).collect();
@@ -331,8 +338,8 @@ mod tests {
     }
 
     /// The largest difference between two force arrays, relative to the
-    /// largest force.
-    fn relative_difference(p: &[Vec3], q: &[Vec3]) -> f32 {
+    /// largest force (also used by the bands' tests).
+    pub(super) fn relative_difference(p: &[Vec3], q: &[Vec3]) -> f32 {
         let scale = p.iter().map(|f| f.length()).fold(0.0, f32::max);
         let diff = p.iter().zip(q).map(|(a, b)| (*a - *b).length());
         diff.fold(0.0, f32::max) / scale
@@ -340,11 +347,8 @@ mod tests {
 
     #[test]
     fn streamed_forces_match_the_pair_kernel_and_follow_edits_of_the_links() {
-        let (n, h) = (11u32, 0.1f32);
-        let rest: Vec<Vec3> = (0..n * n)
-            .map(|p| Vec3::new((p % n) as f32 * h, 0.0, (p / n) as f32 * h))
-            .collect();
-        let mut conn = ClothConnections::grid(n, n, &rest);
+        let h = 0.1;
+        let (rest, mut conn) = flat_grid(11, h);
         let mut rng = Rng(0x2545_f491_4f6c_dd1d);
         let x: Vec<Vec3> = rest.iter().map(|&p| p + rng.vec(0.5 * h)).collect();
         let v: Vec<Vec3> = rest.iter().map(|_| rng.vec(1.0)).collect();
@@ -418,11 +422,8 @@ mod tests {
 
     #[test]
     fn streamed_accelerations_match_the_link_by_link_ones() {
-        let (n, h) = (13u32, 0.1f32);
-        let rest: Vec<Vec3> = (0..n * n)
-            .map(|p| Vec3::new((p % n) as f32 * h, 0.0, (p / n) as f32 * h))
-            .collect();
-        let mut conn = ClothConnections::grid(n, n, &rest);
+        let h = 0.1;
+        let (rest, mut conn) = flat_grid(13, h);
         // Extra links on top of the grid families, as a crease adds.
         conn.crease.push(Link::from_rest(0, 30, &rest));
         let mut rng = Rng(0x0bad_5eed_1234_5678);

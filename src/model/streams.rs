@@ -215,9 +215,15 @@ impl ForceStreams {
         v: &[Vec3],
         out: &mut [Vec3],
     ) {
-        let damped = damped(families);
-        self.others(families, x, v, out);
-        self.dispatch(families, x, v, damped, None, out);
+        self.evaluate(
+            Eval {
+                families,
+                x,
+                v,
+                accel: None,
+            },
+            out,
+        );
     }
 
     /// Turns the forces (N) in `out` into accelerations (m/s²) after adding
@@ -234,87 +240,67 @@ impl ForceStreams {
         accel: &Accel,
         out: &mut [Vec3],
     ) {
-        self.others(families, x, v, out);
-        self.dispatch(families, x, v, damped(families), Some(accel), out);
+        let accel = Some(accel);
+        self.evaluate(
+            Eval {
+                families,
+                x,
+                v,
+                accel,
+            },
+            out,
+        );
     }
 
-    /// The forces of the links that fit no stream, added to `out`.
-    fn others(&self, families: &[(&[Link], Law)], x: &[Vec3], v: &[Vec3], out: &mut [Vec3]) {
+    /// The links that fit no stream through the pair kernel, then the
+    /// streams in the widest SIMD the CPU has.
+    fn evaluate(&mut self, e: Eval, out: &mut [Vec3]) {
         let mut target = Target { f: out, base: 0 };
-        for (cache, &(_, law)) in self.families.iter().zip(families) {
+        for (cache, &(_, law)) in self.families.iter().zip(e.families) {
             if !cache.others.is_empty() {
-                kernel::pair_forces(&[(&cache.others, law)], x, v, &mut target);
+                kernel::pair_forces(&[(&cache.others, law)], e.x, e.v, &mut target);
             }
         }
-    }
-
-    /// [`Self::streamed`] in the widest SIMD the CPU has.
-    fn dispatch(
-        &mut self,
-        families: &[(&[Link], Law)],
-        x: &[Vec3],
-        v: &[Vec3],
-        damped: bool,
-        accel: Option<&Accel>,
-        out: &mut [Vec3],
-    ) {
         #[cfg(target_arch = "x86_64")]
         if std::arch::is_x86_feature_detected!("avx512f") {
             // SAFETY: the CPU has AVX-512F, as checked on the line above.
-            unsafe { self.streamed_avx512(families, x, v, damped, accel, out) };
+            unsafe { self.streamed_avx512(e, out) };
         } else if std::arch::is_x86_feature_detected!("avx2") {
             // SAFETY: the CPU has AVX2, as checked on the line above.
-            unsafe { self.streamed_avx2(families, x, v, damped, accel, out) };
+            unsafe { self.streamed_avx2(e, out) };
         } else {
-            self.streamed(families, x, v, damped, accel, out);
+            self.streamed(e, out);
         }
         #[cfg(not(target_arch = "x86_64"))]
-        self.streamed(families, x, v, damped, accel, out);
+        self.streamed(e, out);
     }
 
     /// [`Self::streamed`] compiled for AVX-512's sixteen-lane vectors: 12 %
     /// off the forces of a 15×15 cloth over AVX2 on this project's machine.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx512f")]
-    fn streamed_avx512(
-        &mut self,
-        families: &[(&[Link], Law)],
-        x: &[Vec3],
-        v: &[Vec3],
-        damped: bool,
-        accel: Option<&Accel>,
-        out: &mut [Vec3],
-    ) {
-        self.streamed(families, x, v, damped, accel, out);
+    fn streamed_avx512(&mut self, e: Eval, out: &mut [Vec3]) {
+        self.streamed(e, out);
     }
 
     /// [`Self::streamed`] compiled for AVX2's eight-lane vectors.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
-    fn streamed_avx2(
-        &mut self,
-        families: &[(&[Link], Law)],
-        x: &[Vec3],
-        v: &[Vec3],
-        damped: bool,
-        accel: Option<&Accel>,
-        out: &mut [Vec3],
-    ) {
-        self.streamed(families, x, v, damped, accel, out);
+    fn streamed_avx2(&mut self, e: Eval, out: &mut [Vec3]) {
+        self.streamed(e, out);
     }
 
     /// The streams' forces, added to `out`, which then becomes the
-    /// accelerations if `accel` is given.
+    /// accelerations if `e.accel` is given.
     #[inline(always)]
-    fn streamed(
-        &mut self,
-        families: &[(&[Link], Law)],
-        x: &[Vec3],
-        v: &[Vec3],
-        damped: bool,
-        accel: Option<&Accel>,
-        out: &mut [Vec3],
-    ) {
+    fn streamed(&mut self, e: Eval, out: &mut [Vec3]) {
+        let Eval {
+            families,
+            x,
+            v,
+            accel,
+        } = e;
+        let damped = damped(families);
         let n = x.len();
         let Self {
             families: caches,
@@ -394,6 +380,16 @@ impl ForceStreams {
         }
         gather(f, out);
     }
+}
+
+/// One evaluation's inputs: the families with their laws, positions (m),
+/// velocities (m/s), and what turns forces into accelerations, if anything.
+#[derive(Clone, Copy)]
+struct Eval<'a> {
+    families: &'a [(&'a [Link], Law<'a>)],
+    x: &'a [Vec3],
+    v: &'a [Vec3],
+    accel: Option<&'a Accel<'a>>,
 }
 
 /// What turns forces into accelerations

@@ -153,6 +153,34 @@ fn the_coarse_operator_is_r_transpose_a_r() {
     }
 }
 
+/// The dynamics of `cloth` (no external forces) and buffers holding the
+/// backward-Euler operator at its state with velocities `v` (m/s) for a
+/// step of `h` seconds.
+fn linearised<'a>(
+    settings: &'a ClothSettings,
+    cloth: &'a crate::cloth::ClothBundle,
+    v: &[Vec3],
+    h: f32,
+) -> (Dynamics<'a>, ImplicitBuffers) {
+    let dynamics = Dynamics {
+        settings,
+        connections: &cloth.connections,
+        inverse_masses: &cloth.particles.inverse_masses,
+        external: &[],
+    };
+    let mut buffers = ImplicitBuffers::default();
+    buffers.resize(v.len());
+    linearise(
+        &dynamics,
+        &cloth.particles.positions,
+        v,
+        h,
+        h * h,
+        &mut buffers,
+    );
+    (dynamics, buffers)
+}
+
 #[test]
 fn the_coarse_grid_cuts_the_iterations_of_a_stiff_cloth() {
     let (cloth, v, _) = deformed(32);
@@ -162,23 +190,8 @@ fn the_coarse_grid_cuts_the_iterations_of_a_stiff_cloth() {
         settings.implicit.max_iterations = 1000;
         settings.implicit.tolerance = 1e-6;
         let w = &cloth.particles.inverse_masses;
-        let dynamics = Dynamics {
-            settings: &settings,
-            connections: &cloth.connections,
-            inverse_masses: w,
-            external: &[],
-        };
-        let mut buffers = ImplicitBuffers::default();
-        buffers.resize(w.len());
         let h = 1.0 / 60.0;
-        linearise(
-            &dynamics,
-            &cloth.particles.positions,
-            &v,
-            h,
-            h * h,
-            &mut buffers,
-        );
+        let (dynamics, mut buffers) = linearised(&settings, &cloth, &v, h);
         for i in 0..w.len() {
             buffers.rhs.set(i, h * buffers.force[i]);
         }
@@ -248,24 +261,7 @@ fn pcg_matches_a_dense_solve_and_leaves_pins_alone() {
     settings.implicit.coarse_grid = true;
     settings.implicit.tolerance = 1e-6;
     settings.implicit.max_iterations = 500;
-    let w = cloth.particles.inverse_masses.clone();
-    let dynamics = Dynamics {
-        settings: &settings,
-        connections: &cloth.connections,
-        inverse_masses: &w,
-        external: &[],
-    };
-    let h = 1.0 / 30.0;
-    let mut buffers = ImplicitBuffers::default();
-    buffers.resize(n);
-    linearise(
-        &dynamics,
-        &cloth.particles.positions,
-        &v,
-        h,
-        h * h,
-        &mut buffers,
-    );
+    let (dynamics, mut buffers) = linearised(&settings, &cloth, &v, 1.0 / 30.0);
     assert!(buffers.coarse_active);
     for i in 0..n {
         buffers
