@@ -51,23 +51,39 @@ fn a_kinematic_grab_carries_the_corner_to_its_target_and_release_drops_it() {
     );
 }
 
-#[test]
-fn a_spring_grab_pulls_the_corner_towards_its_target() {
+/// The corner's mean position (m) over the second second after a
+/// 0.5 m spring grab towards +z from its start (or none), and whether it
+/// was pinned at the end. The sheet falls and flutters meanwhile, so a
+/// single frame's position says little: one change in the last bits of
+/// the forces moves it by 0.2 m.
+fn spring_grabbed_corner(grab: bool) -> (Vec3, bool) {
     let mut app = app();
     let cloth = app.world_mut().spawn(hanging(15)).id();
     let start = particles(&app, cloth).positions[CORNER as usize];
-    let goal = start + Vec3::new(0.0, 0.0, 0.5);
-    let spring = GrabMode::Spring {
-        stiffness: 2.0,
-        damping: 0.1,
-    };
-    grabs(&mut app, cloth).grab(CORNER, goal, spring);
-    for _ in 0..120 {
-        app.update();
+    if grab {
+        let spring = GrabMode::Spring {
+            stiffness: 2.0,
+            damping: 0.1,
+        };
+        grabs(&mut app, cloth).grab(CORNER, start + Vec3::new(0.0, 0.0, 0.5), spring);
     }
-    let x = particles(&app, cloth).positions[CORNER as usize];
-    assert!(x.z > start.z + 0.25, "pulled only to {x}");
-    assert!(!particles(&app, cloth).is_pinned(CORNER as usize));
+    let mut sum = Vec3::ZERO;
+    for frame in 0..120 {
+        app.update();
+        if frame >= 60 {
+            sum += particles(&app, cloth).positions[CORNER as usize];
+        }
+    }
+    let pinned = particles(&app, cloth).is_pinned(CORNER as usize);
+    (sum / 60.0, pinned)
+}
+
+#[test]
+fn a_spring_grab_pulls_the_corner_towards_its_target() {
+    let (free, _) = spring_grabbed_corner(false);
+    let (pulled, pinned) = spring_grabbed_corner(true);
+    assert!(pulled.z > free.z + 0.15, "pulled to {pulled}, free {free}");
+    assert!(!pinned);
 }
 
 #[test]

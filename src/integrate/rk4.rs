@@ -23,6 +23,7 @@ use super::StepBuffers;
 ///
 /// Four force evaluations a step; stable to about `dt ≤ 2.83/ω_max`.
 /// `x` in m, `v` in m/s, `dt` in s; `buffers` must be sized for `x.len()`.
+#[inline(always)]
 pub fn rk4(
     x: &mut [Vec3],
     v: &mut [Vec3],

@@ -8,6 +8,7 @@ use bevy::math::Vec3;
 /// `dt ≤ (√(c² + 4ω²) − c)/ω² ≈ 2/ω_max` instead of `c/ω²`. First order.
 ///
 /// `x` in m, `v` in m/s, `dt` in s; `a` is scratch of one `Vec3` per particle.
+#[inline(always)]
 pub fn symplectic_euler(
     x: &mut [Vec3],
     v: &mut [Vec3],

@@ -21,13 +21,19 @@
 //!
 //! The forces are the pair kernel's, evaluated with the same operations
 //! except that `ℓ/L` is a product with a stored `1/L`; only the order in
-//! which they are summed into each particle differs.
+//! which they are summed into each particle differs. The Type 2 streams
+//! ([`buckling`]) run in one AVX-512 pass where the CPU has it, with the
+//! same operations as their portable loops.
 
 use std::ops::Range;
 
 use bevy::math::Vec3;
 
-use super::choi_ko::{BucklingTable, MIN_LENGTH};
+mod buckling;
+
+use buckling::{Buckling, buckling_pairs};
+
+use super::choi_ko::MIN_LENGTH;
 use super::kernel::{self, Law, Target};
 use crate::connections::Link;
 use crate::soa::Soa;
@@ -54,9 +60,6 @@ pub struct ForceStreams {
     x: Soa,
     v: Soa,
     f: Soa,
-    /// The force (N) on the lower particle of each pair of one stream,
-    /// slot `i` at `guard + i`, with zeros on either side.
-    pair: Soa,
     /// `g(ℓ/L)` (dimensionless) and `ℓ` (m) of each pair of one Type 2 stream.
     g: Vec<f32>,
     len: Vec<f32>,
@@ -84,6 +87,11 @@ struct Stream {
     rest: Vec<f32>,
     /// `1/L` (1/m) of each rest length (NaN where there is none).
     inv_rest: Vec<f32>,
+    /// The force (N) on the lower particle of each pair at the last
+    /// evaluation, slot `i` at `delta + i`, with zeros before (`delta` of
+    /// them, never written) and after the slots (up to `delta` +
+    /// [`padded_span`](Self::padded_span), never written either).
+    pair: Soa,
 }
 
 impl FamilyStreams {
@@ -133,12 +141,18 @@ impl FamilyStreams {
                     lo,
                     rest: Vec::new(),
                     inv_rest: Vec::new(),
+                    pair: Soa::default(),
                 });
             }
             let s = &mut self.streams[k];
             (s.delta, s.lo) = (delta, lo);
             s.rest.clear();
             s.rest.resize((hi - lo).next_multiple_of(LANES), f32::NAN);
+            let len = delta + s.padded_span();
+            for c in &mut s.pair.0 {
+                c.clear();
+                c.resize(len, 0.0);
+            }
             count = k + 1;
         }
         self.streams.truncate(count);
@@ -307,22 +321,19 @@ impl ForceStreams {
             x: xs,
             v: vs,
             f,
-            pair,
             g,
             len,
         } = self;
         // The farthest particle index any stream's loops touch, the largest
         // step and the most slots.
-        let (mut span, mut guard, mut longest) = (n, 0, 0);
+        let (mut span, mut longest) = (n, 0);
         for s in caches.iter().flat_map(|c| &c.streams) {
             span = span.max(s.lo + s.padded_span());
-            guard = guard.max(s.delta);
             longest = longest.max(s.rest.len());
         }
         for s in [&mut *xs, &mut *vs, &mut *f] {
             s.resize(span);
         }
-        pair.resize(2 * guard + longest + LANES);
         g.resize(longest, 0.0);
         len.resize(longest, 0.0);
         scatter(x, xs);
@@ -338,26 +349,35 @@ impl ForceStreams {
         }
         // Undamped laws never read velocities: hand them the positions.
         let vs = if read_v { &*vs } else { &*xs };
-        for (cache, &(_, law)) in caches.iter().zip(families) {
-            for s in &cache.streams {
+        for (cache, &(_, law)) in caches.iter_mut().zip(families) {
+            for stream in &mut cache.streams {
+                // Taken out so that the loops may write it while reading
+                // the rest of the stream.
+                let mut pair = std::mem::take(&mut stream.pair);
+                let (s, pair) = (&*stream, &mut pair);
+                let r = &s.rest[..s.slots()];
                 match law {
-                    Law::Tension { k, kd } => each(s, xs, vs, guard, pair, f, |d, dv, r, _| {
+                    // Undamped laws get loops of their own that read no
+                    // velocities.
+                    Law::Tension { k, kd: 0.0 } => pairs(s, xs, vs, pair, [r; 3], |d, _, r, _| {
+                        tension(d, [0.0; 3], r, k, 0.0)
+                    }),
+                    Law::Tension { k, kd } => pairs(s, xs, vs, pair, [r; 3], |d, dv, r, _| {
                         tension(d, dv, r, k, kd)
                     }),
                     Law::Buckling { table, kb, cb } => {
-                        // The table lookup does not vectorise: give it a
-                        // loop of its own, between two that do.
-                        let m = s.slots();
-                        table_values(s, xs, table, &mut g[..m], &mut len[..m]);
-                        let (g, len, inv) = (&g[..m], &len[..m], &s.inv_rest[..m]);
-                        each(s, xs, vs, guard, pair, f, |d, _, r, i| {
-                            buckling(d, r, len[i], inv[i], g[i], kb, cb)
-                        });
+                        let law = Buckling { table, kb, cb };
+                        buckling_pairs(s, xs, pair, law, g, len)
                     }
-                    Law::Spring { ks, kd } => each(s, xs, vs, guard, pair, f, |d, dv, r, _| {
+                    Law::Spring { ks, kd: 0.0 } => pairs(s, xs, vs, pair, [r; 3], |d, _, r, _| {
+                        spring(d, [0.0; 3], r, ks, 0.0)
+                    }),
+                    Law::Spring { ks, kd } => pairs(s, xs, vs, pair, [r; 3], |d, dv, r, _| {
                         spring(d, dv, r, ks, kd)
                     }),
                 }
+                accumulate(s, pair, f);
+                stream.pair = std::mem::take(pair);
             }
         }
         if let Some(&Accel {
@@ -455,47 +475,28 @@ fn gather(src: &Soa, dst: &mut [Vec3]) {
     }
 }
 
-/// `ℓ` (m) and `g(ℓ/L)` of every slot of a Type 2 stream into `len` and
-/// `g` (garbage in empty slots, which [`buckling`] ignores).
+/// One stream's pair forces: `pair = force(d, dv, L, e)·d` for every slot,
+/// with `e` the slot's entries in `per_slot`; [`accumulate`] then adds them
+/// to both ends (writing both ends here does not vectorise, as the two
+/// writes may overlap). `force` returns the force on `a` (N) per metre of
+/// `d = x_b − x_a`, 0 where the slot is empty.
 #[inline(always)]
-fn table_values(s: &Stream, x: &Soa, table: &BucklingTable, g: &mut [f32], len: &mut [f32]) {
-    let m = s.slots();
-    let (a, b) = s.ends();
-    let ([xa, ya, za], [xb, yb, zb]) = (window(x, &a), window(x, &b));
-    let (g, len, inv) = (&mut g[..m], &mut len[..m], &s.inv_rest[..m]);
-    // Lengths and ratios first, in SIMD ...
-    for i in 0..m {
-        let d = [xb[i] - xa[i], yb[i] - ya[i], zb[i] - za[i]];
-        len[i] = length_squared(d).sqrt();
-        g[i] = len[i] * inv[i];
-    }
-    // ... then the lookups.
-    table.g_in_place(g);
-}
-
-/// One stream: `pair = force(d, dv, L, i)·d` for every slot `i`, then
-/// `f[a] += pair`, `f[a + δ] −= pair` in a second loop (writing both ends
-/// in the first does not vectorise, as the two writes may overlap). `force`
-/// returns
-/// the force on `a` (N) per metre of `d = x_b − x_a`, 0 where the slot is
-/// empty.
-#[inline(always)]
-fn each(
+fn pairs(
     s: &Stream,
     x: &Soa,
     v: &Soa,
-    guard: usize,
     pair: &mut Soa,
-    f: &mut Soa,
-    force: impl Fn([f32; 3], [f32; 3], f32, usize) -> f32,
+    per_slot: [&[f32]; 3],
+    force: impl Fn([f32; 3], [f32; 3], f32, [f32; 3]) -> f32,
 ) {
     let m = s.slots();
     let (a, b) = s.ends();
     let rest = &s.rest[..m];
+    let [e0, e1, e2] = per_slot.map(|e| &e[..m]);
     let ([xa, ya, za], [xb, yb, zb]) = (window(x, &a), window(x, &b));
     let (va, vb) = (window(v, &a), window(v, &b));
     let [px, py, pz] = &mut pair.0;
-    let slots = guard..guard + m;
+    let slots = s.delta..s.delta + m;
     let (px, py, pz) = (
         &mut px[slots.clone()],
         &mut py[slots.clone()],
@@ -508,17 +509,20 @@ fn each(
             vb[1][i] - va[1][i],
             vb[2][i] - va[2][i],
         ];
-        let scale = force(d, dv, rest[i], i);
+        let scale = force(d, dv, rest[i], [e0[i], e1[i], e2[i]]);
         (px[i], py[i], pz[i]) = (d[0] * scale, d[1] * scale, d[2] * scale);
     }
-    // f[lo + j] += p[j] − p[j − δ] over the particles the stream touches,
-    // with p = 0 outside the slots: one pass, both ends of every pair.
+}
+
+/// `f[lo + j] += p[j] − p[j − δ]` over the particles stream `s` touches,
+/// with `p` the pair forces (N) of `s` (`p[j]` at `δ + j` in `pair`, 0
+/// outside the slots): one pass adds each pair's force to both of its ends.
+#[inline(always)]
+fn accumulate(s: &Stream, pair: &Soa, f: &mut Soa) {
     let (delta, width) = (s.delta, s.padded_span());
-    for (fc, pc) in f.0.iter_mut().zip(&mut pair.0) {
-        pc[guard - delta..guard].fill(0.0);
-        pc[guard + m..guard + width].fill(0.0);
+    for (fc, pc) in f.0.iter_mut().zip(&pair.0) {
         let fc = &mut fc[s.lo..s.lo + width];
-        let (now, before) = (&pc[guard..guard + width], &pc[guard - delta..]);
+        let (now, before) = (&pc[delta..delta + width], &pc[..width]);
         for ((fj, &p), &q) in fc.iter_mut().zip(now).zip(before) {
             *fj += p - q;
         }
@@ -538,26 +542,11 @@ fn tension(d: [f32; 3], dv: [f32; 3], rest: f32, k: f32, kd: f32) -> f32 {
     let len = len2.sqrt();
     let inv = 1.0 / len;
     let rate = dv[0] * d[0] + dv[1] * d[1] + dv[2] * d[2];
-    let damping = if kd != 0.0 { kd * rate * inv } else { 0.0 };
+    let damping = kd * rate * inv;
     let mag = k * (len - rest) + damping;
     // An empty slot's NaN rest length fails the first test.
     let taut = len2 >= rest * rest && len2 >= MIN_LENGTH * MIN_LENGTH;
     if taut { mag * inv } else { 0.0 }
-}
-
-/// Type 2, per metre of `d`: `f_b*(ℓ)/ℓ` while `ℓ < L` ([`type2_magnitude`]),
-/// given `ℓ = |d|` (m), `1/L` (1/m) and `g = g(ℓ/L)` from the table.
-///
-/// [`type2_magnitude`]: super::choi_ko::type2_magnitude
-#[inline(always)]
-fn buckling(d: [f32; 3], rest: f32, len: f32, inv_rest: f32, g: f32, kb: f32, cb: f32) -> f32 {
-    let len2 = length_squared(d);
-    let fb = kb * (inv_rest * inv_rest) * g;
-    let linear = cb * (len - rest);
-    let mag = if linear > fb { linear } else { fb };
-    // An empty slot's NaN rest length fails the first test.
-    let compressed = len2 < rest * rest && len2 >= MIN_LENGTH * MIN_LENGTH;
-    if compressed { mag / len } else { 0.0 }
 }
 
 /// Lander's spring, per metre of `d`: `[k_s(ℓ − L) + k_d (v_ab·u)]/ℓ`.
@@ -567,7 +556,7 @@ fn spring(d: [f32; 3], dv: [f32; 3], rest: f32, ks: f32, kd: f32) -> f32 {
     let len = len2.sqrt();
     let inv = 1.0 / len;
     let rate = dv[0] * d[0] + dv[1] * d[1] + dv[2] * d[2];
-    let damping = if kd != 0.0 { kd * rate * inv } else { 0.0 };
+    let damping = kd * rate * inv;
     let mag = ks * (len - rest) + damping;
     let live = !rest.is_nan() && len2 >= MIN_LENGTH * MIN_LENGTH;
     if live { mag * inv } else { 0.0 }
