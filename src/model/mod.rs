@@ -245,21 +245,29 @@ impl Dynamics<'_> {
         v: &[Vec3],
         out: &mut [Vec3],
     ) {
-        self.external_forces(out);
         let banded = self.banded(out.len());
         if let (Some(streams), false) = (streams, banded) {
             // Everything else first, so that the streams' last pass turns
-            // the sum into accelerations.
-            extra_forces(self.settings, self.connections, x, v, out);
-            let (laws, count) = grid_laws(self.settings, grid_families(self.connections));
+            // the sum into accelerations; with nothing else, the streams
+            // start from zero without reading `out`.
+            let c = self.connections;
+            let alone =
+                self.external.len() != out.len() && c.crease.is_empty() && c.fold.is_empty();
+            if !alone {
+                self.external_forces(out);
+                extra_forces(self.settings, c, x, v, out);
+            }
+            let (laws, count) = grid_laws(self.settings, grid_families(c));
             let accel = streams::Accel {
                 inverse_masses: self.inverse_masses,
                 gravity: self.settings.gravity,
                 damping: self.settings.damping,
+                from_zero: alone,
             };
             streams.accelerations_synced(&laws[..count], x, v, &accel, out);
             return;
         }
+        self.external_forces(out);
         if !(banded && bands::internal_forces_banded(self.settings, self.connections, x, v, out)) {
             if banded {
                 // Not a layout the bands can split: start over on one thread.
@@ -341,7 +349,11 @@ mod tests {
     /// largest force (also used by the bands' tests).
     pub(super) fn relative_difference(p: &[Vec3], q: &[Vec3]) -> f32 {
         let scale = p.iter().map(|f| f.length()).fold(0.0, f32::max);
-        let diff = p.iter().zip(q).map(|(a, b)| (*a - *b).length());
+        // `f32::max` drops NaN: count a NaN difference as infinite.
+        let diff = p.iter().zip(q).map(|(a, b)| {
+            let d = (*a - *b).length();
+            if d.is_nan() { f32::INFINITY } else { d }
+        });
         diff.fold(0.0, f32::max) / scale
     }
 
@@ -423,9 +435,14 @@ mod tests {
     #[test]
     fn streamed_accelerations_match_the_link_by_link_ones() {
         let h = 0.1;
-        let (rest, mut conn) = flat_grid(13, h);
-        // Extra links on top of the grid families, as a crease adds.
-        conn.crease.push(Link::from_rest(0, 30, &rest));
+        let (rest, grid) = flat_grid(13, h);
+        // The grid alone (the streams start from zero forces); with a
+        // structural link of a step no stream has (the pair kernel adds it
+        // first); with a crease link and external forces on top.
+        let mut stray = grid.clone();
+        stray.structural.push(Link::from_rest(3, 50, &rest));
+        let mut creased = grid.clone();
+        creased.crease.push(Link::from_rest(0, 30, &rest));
         let mut rng = Rng(0x0bad_5eed_1234_5678);
         let x: Vec<Vec3> = rest.iter().map(|&p| p + rng.vec(0.4 * h)).collect();
         let v: Vec<Vec3> = rest.iter().map(|_| rng.vec(1.0)).collect();
@@ -441,27 +458,33 @@ mod tests {
             })
             .collect();
         let mut streams = ForceStreams::default();
+        let cases = [(&grid, &[][..]), (&stray, &[]), (&creased, &external[..])];
         for model in [ClothModel::ChoiKo, ClothModel::Lander] {
-            let mut s = ClothSettings::default().with_model(model);
-            s.choi_ko.bending_rigidity = 1.0;
-            s.damping = 0.3;
-            let d = Dynamics {
-                settings: &s,
-                connections: &conn,
-                inverse_masses: &w,
-                external: &external,
-            };
-            let mut want = vec![Vec3::ZERO; x.len()];
-            d.accelerations(&x, &v, &mut want);
-            let mut got = vec![Vec3::NAN; x.len()];
-            d.accelerations_with(&mut streams, &x, &v, &mut got);
-            assert_eq!(
-                (got[0], got[12]),
-                (Vec3::ZERO, Vec3::ZERO),
-                "{model:?}: pins"
-            );
-            let err = relative_difference(&want, &got);
-            assert!(err < 1e-5, "{model:?}: relative difference {err}");
+            for (case, &(conn, external)) in cases.iter().enumerate() {
+                let mut s = ClothSettings::default().with_model(model);
+                s.choi_ko.bending_rigidity = 1.0;
+                s.damping = 0.3;
+                let d = Dynamics {
+                    settings: &s,
+                    connections: conn,
+                    inverse_masses: &w,
+                    external,
+                };
+                let mut want = vec![Vec3::ZERO; x.len()];
+                d.accelerations(&x, &v, &mut want);
+                let mut got = vec![Vec3::NAN; x.len()];
+                d.accelerations_with(&mut streams, &x, &v, &mut got);
+                assert_eq!(
+                    (got[0], got[12]),
+                    (Vec3::ZERO, Vec3::ZERO),
+                    "{model:?}, case {case}: pins"
+                );
+                let err = relative_difference(&want, &got);
+                assert!(
+                    err < 1e-5,
+                    "{model:?}, case {case}: relative difference {err}"
+                );
+            }
         }
     }
 }

@@ -235,6 +235,7 @@ impl ForceStreams {
                 x,
                 v,
                 accel: None,
+                from_zero: false,
             },
             out,
         );
@@ -261,6 +262,7 @@ impl ForceStreams {
                 x,
                 v,
                 accel,
+                from_zero: accel.is_some_and(|a| a.from_zero),
             },
             out,
         );
@@ -269,6 +271,12 @@ impl ForceStreams {
     /// The links that fit no stream through the pair kernel, then the
     /// streams in the widest SIMD the CPU has.
     fn evaluate(&mut self, e: Eval, out: &mut [Vec3]) {
+        let mut e = e;
+        if e.from_zero && self.families.iter().any(|c| !c.others.is_empty()) {
+            // The pair kernel adds to `out`.
+            out.fill(Vec3::ZERO);
+            e.from_zero = false;
+        }
         let mut target = Target { f: out, base: 0 };
         for (cache, &(_, law)) in self.families.iter().zip(e.families) {
             if !cache.others.is_empty() {
@@ -313,6 +321,7 @@ impl ForceStreams {
             x,
             v,
             accel,
+            from_zero,
         } = e;
         let damped = damped(families);
         let n = x.len();
@@ -342,10 +351,14 @@ impl ForceStreams {
         if read_v {
             scatter(v, vs);
         }
-        // The forces start from what `out` holds; padding particles at 0.
-        scatter(out, f);
-        for c in &mut f.0 {
-            c[n..].fill(0.0);
+        if from_zero {
+            f.zero();
+        } else {
+            // The forces start from what `out` holds; padding particles at 0.
+            scatter(out, f);
+            for c in &mut f.0 {
+                c[n..].fill(0.0);
+            }
         }
         // Undamped laws never read velocities: hand them the positions.
         let vs = if read_v { &*vs } else { &*xs };
@@ -384,6 +397,7 @@ impl ForceStreams {
             inverse_masses,
             gravity,
             damping,
+            ..
         }) = accel
         {
             // Component by component, in SIMD.
@@ -410,6 +424,8 @@ struct Eval<'a> {
     x: &'a [Vec3],
     v: &'a [Vec3],
     accel: Option<&'a Accel<'a>>,
+    /// Whether the forces start from zero rather than from `out`.
+    from_zero: bool,
 }
 
 /// What turns forces into accelerations
@@ -421,6 +437,9 @@ pub(crate) struct Accel<'a> {
     pub gravity: Vec3,
     /// Absolute damping rate `c` (1/s).
     pub damping: f32,
+    /// Whether the forces start from zero rather than from what `out`
+    /// holds (which is then not read).
+    pub from_zero: bool,
 }
 
 /// Whether any of the laws reads velocities.
