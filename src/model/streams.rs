@@ -22,7 +22,7 @@
 //! The forces are the pair kernel's, evaluated with the same operations
 //! except that `ℓ/L` is a product with a stored `1/L`; only the order in
 //! which they are summed into each particle differs. The Type 2 streams
-//! ([`buckling`]) run in one AVX-512 pass where the CPU has it, with the
+//! (module `buckling`) run in one AVX-512 pass where the CPU has it, with the
 //! same operations as their portable loops.
 
 use std::ops::Range;

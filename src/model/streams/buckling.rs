@@ -54,8 +54,9 @@ fn buckling_pairs_portable(
 
 /// [`buckling_pairs`] sixteen slots at a time in one pass, with the same
 /// operations as [`buckling_pairs_portable`] (so the same forces, up to the
-/// sign of zeros): sixteen slots none of which is compressed, the common
-/// case, skip the square root, the table and the division.
+/// sign of zeros): sixteen slots none of which is compressed (a flat or
+/// taut region of cloth) skip the square root, the table and the
+/// division.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f")]
 fn buckling_pairs_avx512(
@@ -135,7 +136,7 @@ fn table_values(s: &Stream, x: &Soa, table: &BucklingTable, g: &mut [f32], len: 
 /// Type 2, per metre of `d`: `f_b*(ℓ)/ℓ` while `ℓ < L` ([`type2_magnitude`]),
 /// given `ℓ = |d|` (m), `1/L` (1/m) and `g = g(ℓ/L)` from the table.
 ///
-/// [`type2_magnitude`]: super::choi_ko::type2_magnitude
+/// [`type2_magnitude`]: crate::model::choi_ko::type2_magnitude
 #[inline(always)]
 fn buckling(d: [f32; 3], rest: f32, len: f32, inv_rest: f32, g: f32, kb: f32, cb: f32) -> f32 {
     let len2 = length_squared(d);
