@@ -50,7 +50,7 @@ const MIN_STREAM_LINKS: usize = 8;
 const LANES: usize = 16;
 
 /// Per-cloth cache and scratch of the streamed force evaluation
-/// ([`pair_forces`](Self::pair_forces)). Holds about three times the
+/// ([`pair_forces`](Self::pair_forces)). Holds about three and a half times the
 /// memory of the link lists it was built from.
 #[derive(Clone, Debug, Default)]
 pub struct ForceStreams {
