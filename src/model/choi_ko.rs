@@ -77,8 +77,8 @@ pub fn g_of_theta(theta: f64) -> (f64, f64) {
 /// derivative. Against the exact values the relative error of `g` is
 /// below 3·10⁻⁷ and that of `g'` below 1.5·10⁻⁵. MODEL.md §3.6a suggests a
 /// linear table on `s_k = k/1024` (errors 2.6·10⁻⁶ and 10⁻⁵); the pieces
-/// are as accurate and fit in ten AVX-512 registers, so the force streams
-/// look `g` up with in-register permutes instead of gathers from memory
+/// are as accurate and fill ten AVX-512 vectors, so the force streams look
+/// `g` up with five permutes of whole vectors instead of gathers
 /// (gathers took about a tenth of a 15×15 RK4 step on this project's
 /// machine).
 #[derive(Clone, Debug)]
