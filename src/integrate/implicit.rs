@@ -103,7 +103,7 @@ impl ImplicitBuffers {
 pub fn k_times(blocks: &[Block], w: &[Vec3], out: &mut [Vec3]) {
     out.fill(Vec3::ZERO);
     for blk in blocks {
-        let t = blk.k * (w[blk.b as usize] - w[blk.a as usize]);
+        let t = blk.k_times(w[blk.b as usize] - w[blk.a as usize]);
         out[blk.a as usize] += t;
         out[blk.b as usize] -= t;
     }
@@ -115,6 +115,25 @@ pub fn k_times(blocks: &[Block], w: &[Vec3], out: &mut [Vec3]) {
 /// warm start), and stops once `rᵀP⁻¹r ≤ ε² bᵀP⁻¹b` either way.
 /// Returns (iterations, relative residual).
 fn pcg(params: &ImplicitParams, buffers: &mut ImplicitBuffers) -> (u32, f32) {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx512f") {
+        // SAFETY: the CPU has AVX-512F, as checked on the line above.
+        return unsafe { pcg_avx512(params, buffers) };
+    }
+    pcg_inner(params, buffers)
+}
+
+/// [`pcg`] compiled for AVX-512, so that its vector updates, the
+/// preconditioner and the coarse correction run sixteen lanes wide.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+fn pcg_avx512(params: &ImplicitParams, buffers: &mut ImplicitBuffers) -> (u32, f32) {
+    pcg_inner(params, buffers)
+}
+
+/// The body of [`pcg`], inlined into each of its builds.
+#[inline(always)]
+fn pcg_inner(params: &ImplicitParams, buffers: &mut ImplicitBuffers) -> (u32, f32) {
     let ImplicitBuffers {
         op,
         rhs,

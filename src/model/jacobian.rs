@@ -25,38 +25,62 @@ use super::choi_ko::{BUCKLING_TABLE, MIN_LENGTH, type2_magnitude};
 use crate::connections::{ClothConnections, Link};
 use crate::settings::{ClothModel, ClothSettings, Type2Jacobian};
 
-/// The Jacobian blocks of one connection.
+/// The Jacobian blocks of one connection, kept as the few numbers they are
+/// made of (32 bytes rather than two 3×3 matrices): with `P_u = u uᵀ` and
+/// `P_⊥ = I − P_u`,
+/// `∂F_a/∂x_b = axial·P_u + transverse·P_⊥` and `∂F_a/∂v_b = damping·P_u`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Block {
     /// First particle.
     pub a: u32,
     /// Second particle.
     pub b: u32,
+    /// Unit vector from `a` to `b` (dimensionless).
+    pub u: Vec3,
+    /// Stiffness along `u`, N/m.
+    pub axial: f32,
+    /// Stiffness across `u`, N/m.
+    pub transverse: f32,
+    /// Damping along `u`, N·s/m.
+    pub damping: f32,
+}
+
+impl Block {
     /// `∂F_a/∂x_b` in N/m (symmetric).
-    pub k: Mat3,
+    pub fn k(&self) -> Mat3 {
+        let pu = outer(self.u);
+        pu * self.axial + (Mat3::IDENTITY - pu) * self.transverse
+    }
+
     /// `∂F_a/∂v_b` in N·s/m (symmetric).
-    pub d: Mat3,
+    pub fn d(&self) -> Mat3 {
+        outer(self.u) * self.damping
+    }
+
+    /// `∂F_a/∂x_b · w` (N for `w` in m).
+    #[inline]
+    pub fn k_times(&self, w: Vec3) -> Vec3 {
+        self.transverse * w + (self.axial - self.transverse) * self.u.dot(w) * self.u
+    }
 }
 
 fn outer(u: Vec3) -> Mat3 {
     Mat3::from_cols(u * u.x, u * u.y, u * u.z)
 }
 
-/// `axial·P_u + transverse·P_⊥`.
-fn block(u: Vec3, axial: f32, transverse: f32) -> Mat3 {
-    let pu = outer(u);
-    pu * axial + (Mat3::IDENTITY - pu) * transverse
-}
-
-/// Adds `force` on `a` (and its opposite on `b`) and records the blocks.
-fn push(l: &Link, force: Vec3, k: Mat3, d: Mat3, f: &mut [Vec3], blocks: &mut Vec<Block>) {
+/// Adds `force` on `a` (and its opposite on `b`) and records the blocks
+/// `(axial, transverse, damping)` along `u`.
+fn push(l: &Link, force: Vec3, u: Vec3, kd: [f32; 3], f: &mut [Vec3], blocks: &mut Vec<Block>) {
     f[l.a as usize] += force;
     f[l.b as usize] -= force;
+    let [axial, transverse, damping] = kd;
     blocks.push(Block {
         a: l.a,
         b: l.b,
-        k,
-        d,
+        u,
+        axial,
+        transverse,
+        damping,
     });
 }
 
@@ -80,7 +104,7 @@ fn stretch(
         if !taut && !two_sided {
             // Slack Type 1: no force; maybe keep the axial stiffness.
             if keep_slack {
-                push(l, Vec3::ZERO, block(u, k, 0.0), Mat3::ZERO, f, out);
+                push(l, Vec3::ZERO, u, [k, 0.0, 0.0], f, out);
             }
             continue;
         }
@@ -90,8 +114,7 @@ fn stretch(
         if !full {
             transverse = transverse.max(0.0);
         }
-        let d = if kd != 0.0 { outer(u) * kd } else { Mat3::ZERO };
-        push(l, force, block(u, k, transverse), d, f, out);
+        push(l, force, u, [k, transverse, kd], f, out);
     }
 }
 
@@ -114,7 +137,7 @@ fn buckle(
         let u = delta / len;
         let (mag, slope) = type2_magnitude(table, len, l.rest_length, kb, cb);
         let transverse = if full { mag / len } else { 0.0 };
-        push(l, mag * u, block(u, slope, transverse), Mat3::ZERO, f, out);
+        push(l, mag * u, u, [slope, transverse, 0.0], f, out);
     }
 }
 
@@ -292,7 +315,7 @@ mod tests {
                     let numeric = (f1[other] - f0[other]) / e;
                     let mut unit = Vec3::ZERO;
                     unit[axis] = 1.0;
-                    let analytic = blk.k * unit;
+                    let analytic = blk.k() * unit;
                     let err = (numeric - analytic).length();
                     assert!(
                         err < 0.05 * (1.0 + analytic.length()) + 0.5,

@@ -57,8 +57,16 @@ pub(super) struct Coarse {
     /// The Cholesky factor `L`, row by row: `L[i][j]` at
     /// `i·(bandwidth + 1) + j + bandwidth − i` for `i − bandwidth ≤ j ≤ i`.
     band: Vec<f64>,
+    /// `1 / L[i][i]`.
+    inverse_diagonal: Vec<f64>,
+    /// `L` below the diagonal column by column: `L[i + 1 + k][i]` at
+    /// `i·bandwidth + k`, so that the forward solve reads it in order.
+    columns_below: Vec<f64>,
     /// Coarse right-hand side, then solution.
     rc: Vec<f64>,
+    /// A fine row's worth of column sums (restriction) or of corrections
+    /// (prolongation).
+    row: Vec<f32>,
     /// Whether a block coupled aggregates that are not neighbours.
     unusable: bool,
 }
@@ -113,6 +121,7 @@ impl Coarse {
         );
         self.off.clear();
         self.off.resize(self.count, [Mat3A::ZERO; 4]);
+        self.row.resize(columns, 0.0);
         true
     }
 
@@ -200,6 +209,16 @@ impl Coarse {
                 };
             }
         }
+        self.inverse_diagonal.clear();
+        self.inverse_diagonal
+            .extend((0..size).map(|i| 1.0 / band[i * width + bw]));
+        self.columns_below.clear();
+        self.columns_below.resize(size * bw, 0.0);
+        for i in 0..size {
+            for (k, r) in (i + 1..size.min(i + 1 + bw)).enumerate() {
+                self.columns_below[i * bw + k] = band[r * width + i + bw - r];
+            }
+        }
         self.rc.clear();
         self.rc.resize(size, 0.0);
         true
@@ -213,30 +232,42 @@ impl Coarse {
 
     /// `y += R A_c⁻¹ Rᵀ r` (r in N·s, zero at pins as the filter leaves it;
     /// y in m/s), leaving the particles whose `free` is 0 (pins) alone.
+    #[inline(always)]
     pub(super) fn add(&mut self, r: &Soa, y: &mut Soa, free: &[f32]) {
         let (cols, side, ccols) = (self.fine_columns, self.side, self.columns);
-        let rc = &mut self.rc;
-        rc.fill(0.0);
-        // Rᵀ r: an aggregate's row runs, summed.
+        let (rc, sums) = (&mut self.rc, &mut self.row);
+        // Rᵀ r: the columns of a band of `side` rows summed, then their
+        // runs of `side`, one aggregate each.
         for (k, comp) in r.0.iter().enumerate() {
-            for (j, row) in comp.chunks_exact(cols).enumerate() {
-                let base = (j / side) * ccols;
-                for (i, run) in row.chunks(side).enumerate() {
-                    rc[3 * (base + i) + k] += run.iter().sum::<f32>() as f64;
+            for (j, band) in comp.chunks(cols * side).enumerate() {
+                let mut rows = band.chunks_exact(cols);
+                sums.copy_from_slice(rows.next().unwrap_or(&[]));
+                for row in rows {
+                    for (s, &x) in sums.iter_mut().zip(row) {
+                        *s += x;
+                    }
+                }
+                for (i, run) in sums.chunks(side).enumerate() {
+                    rc[3 * (j * ccols + i) + k] = run.iter().sum::<f32>() as f64;
                 }
             }
         }
-        let (bw, width, band) = (self.bandwidth, self.bandwidth + 1, &self.band);
+        let (bw, band, inverse) = (self.bandwidth, &self.band, &self.inverse_diagonal);
         let size = rc.len();
-        // L z = Rᵀ r.
+        // L z = Rᵀ r, a column of L at a time.
         for i in 0..size {
-            let first = i.saturating_sub(bw);
-            let row = &band[i * width + first + bw - i..i * width + bw];
-            rc[i] = (rc[i] - dot(row, &rc[first..i])) / band[i * width + bw];
+            let z = rc[i] * inverse[i];
+            rc[i] = z;
+            let below = (size - 1 - i).min(bw);
+            let column = &self.columns_below[i * bw..i * bw + below];
+            for (r, l) in rc[i + 1..i + 1 + below].iter_mut().zip(column) {
+                *r -= l * z;
+            }
         }
         // Lᵀ e = z, a column of Lᵀ (a row of L) at a time.
+        let width = bw + 1;
         for i in (0..size).rev() {
-            let e = rc[i] / band[i * width + bw];
+            let e = rc[i] * inverse[i];
             rc[i] = e;
             let first = i.saturating_sub(bw);
             let row = &band[i * width + first + bw - i..i * width + bw];
@@ -244,15 +275,16 @@ impl Coarse {
                 *z -= l * e;
             }
         }
-        // R e, pins left alone.
+        // R e, pins left alone: a band's row of corrections, then its rows.
         for (k, comp) in y.0.iter_mut().enumerate() {
-            let rows = comp.chunks_exact_mut(cols).zip(free.chunks_exact(cols));
-            for (j, (row, free)) in rows.enumerate() {
-                let base = (j / side) * ccols;
-                let runs = row.chunks_mut(side).zip(free.chunks(side));
-                for (i, (run, free)) in runs.enumerate() {
-                    let e = rc[3 * (base + i) + k] as f32;
-                    for (yi, f) in run.iter_mut().zip(free) {
+            let bands = comp.chunks_mut(cols * side).zip(free.chunks(cols * side));
+            for (j, (band, free)) in bands.enumerate() {
+                for (i, run) in sums.chunks_mut(side).enumerate() {
+                    run.fill(rc[3 * (j * ccols + i) + k] as f32);
+                }
+                let rows = band.chunks_exact_mut(cols).zip(free.chunks_exact(cols));
+                for (row, free) in rows {
+                    for ((yi, &f), &e) in row.iter_mut().zip(free).zip(sums.iter()) {
                         *yi += e * f;
                     }
                 }
@@ -262,6 +294,7 @@ impl Coarse {
 }
 
 /// `Σ aᵢ·bᵢ` in four independent lanes, so the sum is not one long chain.
+#[inline(always)]
 fn dot(a: &[f64], b: &[f64]) -> f64 {
     let mut lanes = [0.0f64; 4];
     let (ac, bc) = (a.chunks_exact(4), b.chunks_exact(4));

@@ -25,6 +25,7 @@ pub(super) use crate::soa::Soa;
 
 /// `Σ aᵢ·bᵢ` in f64, summed in eight f32 lanes over runs short enough to
 /// keep six significant digits, so that the inner loop vectorises.
+#[inline(always)]
 pub(super) fn dot(a: &Soa, b: &Soa) -> f64 {
     const LANES: usize = 8;
     const RUN: usize = 32 * LANES;
@@ -158,20 +159,45 @@ impl Operator {
         let mut diag = std::mem::take(&mut self.precond);
         diag.reset(n);
         for blk in blocks {
-            let c = sym(blk.d * alpha + blk.k * beta);
-            if c == [0.0; 6] {
-                // A stretched Type 2 link or a dropped slack one adds nothing.
+            // C = αD + βK = t I + s u uᵀ.
+            let t = beta * blk.transverse;
+            let s = beta * blk.axial + alpha * blk.damping - t;
+            if t == 0.0 && s == 0.0 {
+                // A dropped slack link (or an undamped, unstiff one) adds nothing.
                 continue;
             }
+            let u = blk.u;
+            let su = s * u;
+            let c = [
+                t + su.x * u.x,
+                t + su.y * u.y,
+                t + su.z * u.z,
+                su.x * u.y,
+                su.x * u.z,
+                su.y * u.z,
+            ];
             let (p, q) = (blk.a.min(blk.b) as usize, blk.a.max(blk.b) as usize);
             match self.deltas.iter().position(|&d| d == q - p) {
                 Some(s) => self.streams[s].add(p, &c),
-                None => self.others.push(([p as u32, q as u32], c)),
+                None => {
+                    self.others.push(([p as u32, q as u32], c));
+                    diag.add(p, &c);
+                    diag.add(q, &c);
+                }
             }
-            diag.add(p, &c);
-            diag.add(q, &c);
             if let Some(coarse) = coarse.as_deref_mut() {
                 coarse.add_pair(p, q, &c);
+            }
+        }
+        // The streams' blocks on the diagonal, both ends, a stream at a time.
+        for (&delta, s) in self.deltas.iter().zip(&self.streams) {
+            for (diag, s) in diag.0.iter_mut().zip(&s.0) {
+                for (d, &c) in diag.iter_mut().zip(s) {
+                    *d += c;
+                }
+                for (d, &c) in diag[delta..].iter_mut().zip(s) {
+                    *d += c;
+                }
             }
         }
         self.mass.clear();
@@ -250,6 +276,7 @@ impl Operator {
     }
 
     /// `y = B⁻¹ r` for the block-Jacobi preconditioner `B`.
+    #[inline(always)]
     pub fn precondition(&self, r: &Soa, y: &mut Soa) {
         let [xx, yy, zz, xy, xz, yz] = &self.precond.0;
         let [rx, ry, rz] = &r.0;
