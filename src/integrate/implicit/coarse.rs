@@ -57,15 +57,15 @@ pub(super) struct Coarse {
     /// The Cholesky factor `L`, row by row: `L[i][j]` at
     /// `i·(bandwidth + 1) + j + bandwidth − i` for `i − bandwidth ≤ j ≤ i`.
     band: Vec<f64>,
-    /// `1 / L[i][i]`.
+    /// `1 / L[i][i]` (1/√kg: `A_c = L Lᵀ` is in kg).
     inverse_diagonal: Vec<f64>,
-    /// `L` below the diagonal column by column: `L[i + 1 + k][i]` at
+    /// `L` below the diagonal column by column (√kg): `L[i + 1 + k][i]` at
     /// `i·bandwidth + k`, so that the forward solve reads it in order.
     columns_below: Vec<f64>,
     /// Coarse right-hand side, then solution.
     rc: Vec<f64>,
-    /// A fine row's worth of column sums (restriction) or of corrections
-    /// (prolongation).
+    /// A fine row's worth of column sums (restriction, N·s) or of
+    /// corrections (prolongation, m/s).
     row: Vec<f32>,
     /// Whether a block coupled aggregates that are not neighbours.
     unusable: bool,
@@ -240,9 +240,9 @@ impl Coarse {
         // runs of `side`, one aggregate each.
         for (k, comp) in r.0.iter().enumerate() {
             for (j, band) in comp.chunks(cols * side).enumerate() {
-                let mut rows = band.chunks_exact(cols);
-                sums.copy_from_slice(rows.next().unwrap_or(&[]));
-                for row in rows {
+                // `begin` checked that the rows are whole.
+                sums.copy_from_slice(&band[..cols]);
+                for row in band[cols..].chunks_exact(cols) {
                     for (s, &x) in sums.iter_mut().zip(row) {
                         *s += x;
                     }
