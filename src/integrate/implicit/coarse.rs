@@ -294,7 +294,6 @@ impl Coarse {
 }
 
 /// `Σ aᵢ·bᵢ` in four independent lanes, so the sum is not one long chain.
-#[inline(always)]
 fn dot(a: &[f64], b: &[f64]) -> f64 {
     let mut lanes = [0.0f64; 4];
     let (ac, bc) = (a.chunks_exact(4), b.chunks_exact(4));
