@@ -1,6 +1,6 @@
 //! Live figures as Bevy diagnostics, recorded every fixed step in
-//! [`ClothSystems::Writeback`](crate::ClothSystems::Writeback) (read them
-//! from `DiagnosticsStore`, or let an egui panel show them):
+//! [`ClothSystems::Writeback`] (read them from `DiagnosticsStore`, or let
+//! an egui panel show them):
 //!
 //! | path | value |
 //! |---|---|

@@ -6,8 +6,9 @@
 //! (the cloth goes back to its state before it), the substeps are doubled,
 //! or the cloth switches to the fallback integrator, and the step is run
 //! again, up to [`GuardSettings::retries`] times and at most
-//! [`GuardSettings::max_boost`] times the configured substeps. The stronger setting stays
-//! in force for that cloth (see [`ClothStats`](crate::ClothStats)), a
+//! [`GuardSettings::max_boost`] times the configured substeps. The stronger
+//! setting stays in force for that cloth for a while (see below and
+//! [`ClothStats`](crate::ClothStats)), a
 //! [`ClothDiverged`] message says what happened, and a warning is logged
 //! once per cloth. If every retry trips on a finite state (violent but not
 //! diverging: the recoil of an over-stretched cloth), the last attempt is
@@ -17,10 +18,15 @@
 //! state would trip the same way next step and freeze the cloth. The cloth
 //! is never lost and the app never panics.
 //!
-//! With [`AdaptiveSubsteps`](crate::adaptive::AdaptiveSubsteps) on, the
-//! estimate follows the cloth's state, so the boost lasts only through the
-//! transient: it halves every [`RELAX_AFTER`] clean steps until the estimate
-//! alone decides again. Without it, the boost stays.
+//! A boost is for the transient that tripped it (an impact, a violent
+//! grab), so it does not last. With
+//! [`AdaptiveSubsteps`](crate::adaptive::AdaptiveSubsteps) on, the estimate
+//! follows the cloth's state and the boost halves every [`RELAX_AFTER`]
+//! clean steps until the estimate alone decides again. Without it, the
+//! configured substeps may simply be too few, so the guard probes: it
+//! halves the boost after [`RELAX_AFTER_FIXED`] clean steps, and every
+//! further trip doubles that wait (up to 2¹⁰ times), so a cloth that keeps
+//! tripping settles on its boost and pays a redone step ever more rarely.
 
 use bevy::math::Vec3;
 use bevy::prelude::{Entity, Message, Reflect};
@@ -164,23 +170,38 @@ pub struct GuardState {
     pub(crate) warned: bool,
     /// Clean steps since the boost last changed.
     pub(crate) clean: u32,
+    /// Fixed steps that tripped the guard so far (saturating).
+    pub(crate) trips: u32,
 }
 
 /// Clean fixed steps after which an adaptive cloth's boost halves.
 pub const RELAX_AFTER: u32 = 10;
 
+/// Clean fixed steps after which the boost of a cloth without adaptive
+/// substeps first halves (1 s at 60 Hz); each later trip doubles it.
+pub const RELAX_AFTER_FIXED: u32 = 60;
+
+/// The most doublings of [`RELAX_AFTER_FIXED`] (about 17 min at 60 Hz).
+const MAX_BACKOFF: u32 = 10;
+
 impl GuardState {
-    /// One clean step of a cloth with adaptive substeps: its estimate follows
-    /// the state, so a boost is only needed through the transient that
-    /// tripped it. Every [`RELAX_AFTER`] clean steps the boosted substeps
-    /// halve; the boost ends when they reach the configured substeps
-    /// `floor` or the configured `integrator` is back.
-    pub(crate) fn relax(&mut self, integrator: Integrator, floor: u32) {
+    /// One clean fixed step. A boost is only needed through the transient
+    /// that tripped it: after enough clean steps ([`RELAX_AFTER`] with
+    /// `adaptive` substeps, else [`RELAX_AFTER_FIXED`] doubled for every
+    /// trip after the first) the boosted substeps halve; the boost ends
+    /// when they reach the configured substeps `floor` or the configured
+    /// `integrator` is back.
+    pub(crate) fn relax(&mut self, integrator: Integrator, floor: u32, adaptive: bool) {
         let Some((substeps, boosted)) = self.boost else {
             return;
         };
         self.clean += 1;
-        if self.clean < RELAX_AFTER {
+        let wait = if adaptive {
+            RELAX_AFTER
+        } else {
+            RELAX_AFTER_FIXED << self.trips.saturating_sub(1).min(MAX_BACKOFF)
+        };
+        if self.clean < wait {
             return;
         }
         self.clean = 0;
@@ -237,7 +258,7 @@ mod tests {
         };
         let mut seen = Vec::new();
         for _ in 0..5 * RELAX_AFTER {
-            state.relax(se, 10);
+            state.relax(se, 10, true);
             seen.push(state.boost.map(|(s, _)| s));
         }
         let at = |k: u32| seen[(k * RELAX_AFTER - 1) as usize];
@@ -246,8 +267,31 @@ mod tests {
         // A fallback integrator ends at once after the clean steps.
         state.boost = Some((40, Integrator::BackwardEuler));
         for _ in 0..RELAX_AFTER {
-            state.relax(se, 10);
+            state.relax(se, 10, true);
         }
         assert_eq!(state.boost, None);
+    }
+
+    #[test]
+    fn a_fixed_boost_relaxes_later_after_every_trip() {
+        let be = Integrator::BackwardEuler;
+        // Clean steps until a boost of 4 substeps over a floor of 1 halves.
+        let wait = |trips: u32| {
+            let mut state = GuardState {
+                boost: Some((4, be)),
+                trips,
+                ..GuardState::default()
+            };
+            (1..)
+                .find(|_| {
+                    state.relax(be, 1, false);
+                    state.boost != Some((4, be))
+                })
+                .unwrap()
+        };
+        assert_eq!(wait(1), RELAX_AFTER_FIXED);
+        assert_eq!(wait(2), 2 * RELAX_AFTER_FIXED);
+        assert_eq!(wait(4), 8 * RELAX_AFTER_FIXED);
+        assert_eq!(wait(400), RELAX_AFTER_FIXED << MAX_BACKOFF);
     }
 }

@@ -169,11 +169,17 @@ pub(crate) fn step_cloths(
                 if let Some(reason) = tripped {
                     scratch.guard.pending =
                         Some((reason, effective.substeps, effective.integrator, true));
-                } else if settings.adaptive.is_some() {
-                    scratch.guard.relax(settings.integrator, settings.substeps);
+                } else {
+                    let adaptive = settings.adaptive.is_some();
+                    scratch
+                        .guard
+                        .relax(settings.integrator, settings.substeps, adaptive);
                 }
                 break;
             };
+            if tripped.is_none() {
+                scratch.guard.trips = scratch.guard.trips.saturating_add(1);
+            }
             let first = *tripped.get_or_insert(reason);
             if attempt == guard.retries && reason != Divergence::NonFinite {
                 // Every retry tripped on a finite state: violent motion (the

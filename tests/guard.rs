@@ -154,3 +154,29 @@ fn parallel_force_bands_step_to_the_same_bits() {
     // the hash above would notice a band taking another order.
     assert_ne!(on, scene_hash_with(90, Parallelism::Off));
 }
+
+#[test]
+fn a_boost_is_probed_again_later_and_kept_while_it_is_needed() {
+    // The configured 4 substeps stay too few: after each relaxation the
+    // guard trips again and boosts back, and it waits twice as long before
+    // the next try, so trips grow rarer rather than recurring every second.
+    let mut app = app();
+    let settings = too_few_substeps(GuardSettings::default());
+    let cloth = app.world_mut().spawn((hanging(15), settings)).id();
+    let mut trips = Vec::new();
+    for frame in 0..500 {
+        app.update();
+        let messages = app.world().resource::<Messages<ClothDiverged>>();
+        if messages.iter_current_update_messages().next().is_some() {
+            trips.push(frame);
+        }
+    }
+    let gaps: Vec<i32> = trips.windows(2).map(|w| w[1] - w[0]).collect();
+    eprintln!("trips at frames {trips:?}, gaps {gaps:?}");
+    assert!(gaps.len() >= 2, "{trips:?}");
+    assert!(gaps[0] >= 60, "{gaps:?}");
+    assert!(gaps[1] >= 2 * gaps[0] - 10, "{gaps:?}");
+    assert!(particles(&app, cloth).is_finite());
+    let stats = app.world().get::<ClothStats>(cloth).unwrap();
+    assert!(stats.substeps >= 8 && stats.max_strain < 0.05, "{stats:?}");
+}

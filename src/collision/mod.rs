@@ -13,16 +13,15 @@
 //! [`narrow`], [`shapes`], [`trimesh`], [`self_collision`]); the systems
 //! here only gather poses:
 //!
-//! 1. In [`ClothSystems::Prepare`](crate::ClothSystems::Prepare) every
-//!    collider's pose at the start and end of the fixed step is gathered
-//!    into the [`ColliderScene`].
-//! 2. In [`ClothSystems::Integrate`](crate::ClothSystems::Integrate) contacts
-//!    with the scene's colliders (poses interpolated over the step), and
-//!    self-contacts, are resolved **after every substep**: once per fixed
-//!    step is too coarse for springs that oscillate eight times within it,
-//!    and a draped cloth gains energy and flies off.
-//! 3. In [`ClothSystems::Collide`](crate::ClothSystems::Collide) the seed's
-//!    triangle–triangle pass runs once per step for mesh colliders.
+//! 1. In [`ClothSystems::Prepare`] every collider's pose at the start and
+//!    end of the fixed step is gathered into the [`ColliderScene`].
+//! 2. In [`ClothSystems::Integrate`] contacts with the scene's colliders
+//!    (poses interpolated over the step), and self-contacts, are resolved
+//!    **after every substep**: once per fixed step is too coarse for springs
+//!    that oscillate eight times within it, and a draped cloth gains energy
+//!    and flies off.
+//! 3. In [`ClothSystems::Collide`] the seed's triangle–triangle pass runs
+//!    once per step for mesh colliders.
 //!
 //! **Only when needed**: with no `ClothCollider` in the world none of this
 //! runs, and self-collision runs only for cloths that ask for it.
@@ -364,7 +363,7 @@ pub(crate) fn configure(app: &mut App) {
         );
 }
 
-/// [`ClothSystems::Prepare`](crate::ClothSystems::Prepare): every valid
+/// [`ClothSystems::Prepare`]: every valid
 /// collider's poses over the coming step; its end pose is its next start.
 fn gather_colliders(
     mut colliders: Query<(&ClothCollider, WorldPose, &mut ColliderMotion)>,
@@ -406,7 +405,7 @@ fn clear_colliders(mut scene: ResMut<ColliderScene>) {
     }
 }
 
-/// [`ClothSystems::Collide`](crate::ClothSystems::Collide): the seed's
+/// [`ClothSystems::Collide`]: the seed's
 /// triangle–triangle pass against mesh colliders, once per fixed step.
 fn seed_pass(
     time: Res<Time<Fixed>>,

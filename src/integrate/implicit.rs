@@ -8,7 +8,7 @@
 //!
 //! Both solve `A Δv = b` with `A = M(1 + αc) − α D − β K`, where `K = ∂F/∂x`
 //! and `D = ∂F/∂v` come as per-connection 3×3 blocks from
-//! [`assemble`](crate::model::jacobian::assemble) and `c` is the absolute
+//! [`assemble`] and `c` is the absolute
 //! damping (`∂(−cMv)/∂v = −cM`):
 //!
 //! | scheme | α | β | b |

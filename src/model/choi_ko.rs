@@ -151,7 +151,7 @@ impl BucklingTable {
     /// Replaces every `s` in `values` by `g(s)`, as [`g`](Self::g) does
     /// (except that NaN gives `g(0)`), eight at a time with AVX2's gathers
     /// where the CPU has them: the compiler does not vectorise the lookup.
-    /// (The force streams on AVX-512 use [`g_avx512`](Self::g_avx512).)
+    /// (The force streams on AVX-512 use `g_avx512`.)
     pub fn g_in_place(&self, values: &mut [f32]) {
         #[cfg(target_arch = "x86_64")]
         if std::arch::is_x86_feature_detected!("avx2") {
