@@ -1,8 +1,12 @@
 //! An egui panel to steer every cloth (feature `egui`): [`ClothPanelPlugin`].
 //!
-//! It edits [`ClothDefaults`]; a change is also copied into every cloth's
-//! own [`ClothSettings`] (field by field, never the model, so two cloths that
-//! differ only by model keep differing only by model). It shows the live
+//! It shows the settings of the first cloth that has its own
+//! [`ClothSettings`], or [`ClothDefaults`] when none has, so that it shows
+//! what runs. A change made in it is copied, field by field and only the
+//! fields it shows, into [`ClothDefaults`] and every cloth's own settings;
+//! the model can be switched only while no cloth has its own settings, so
+//! two cloths that differ by model (or by anything the panel does not show)
+//! keep differing. It shows the live
 //! [`diagnostics`](crate::diagnostics), sets [`ClothWind`], and pauses,
 //! single-steps and resets the simulation (reset restores every cloth to
 //! how it was spawned). Add `EguiPlugin` yourself.
@@ -70,7 +74,9 @@ fn panel(
     mut cloths: Query<(&SpawnState, &mut ClothParticles, &mut ClothGrabs)>,
 ) -> Result {
     let ctx = contexts.ctx_mut()?;
-    let before = defaults.0.clone();
+    let own = overrides.iter().next().cloned();
+    let per_cloth = own.is_some();
+    let before = own.unwrap_or_else(|| defaults.0.clone());
     let mut s = before.clone();
     egui::Window::new("Cloth")
         .anchor(egui::Align2::RIGHT_TOP, egui::vec2(-10.0, 10.0))
@@ -78,8 +84,12 @@ fn panel(
         .show(ctx, |ui| {
             ui.horizontal(|ui| {
                 ui.label("model");
-                ui.radio_value(&mut s.model, ClothModel::ChoiKo, "Choi–Ko");
-                ui.radio_value(&mut s.model, ClothModel::Lander, "Lander");
+                if per_cloth {
+                    ui.label("set per cloth");
+                } else {
+                    ui.radio_value(&mut s.model, ClothModel::ChoiKo, "Choi–Ko");
+                    ui.radio_value(&mut s.model, ClothModel::Lander, "Lander");
+                }
             });
             egui::ComboBox::from_label("integrator")
                 .selected_text(s.integrator.name())
@@ -148,23 +158,70 @@ fn panel(
         });
     if s != before {
         for mut own in &mut overrides {
-            if s.integrator != before.integrator {
-                own.integrator = s.integrator;
-            }
-            if s.substeps != before.substeps {
-                own.substeps = s.substeps;
-            }
-            if s.gravity != before.gravity {
-                own.gravity = s.gravity;
-            }
-            if s.damping != before.damping {
-                own.damping = s.damping;
-            }
-            if s.choi_ko != before.choi_ko {
-                own.choi_ko = s.choi_ko;
-            }
+            copy_changes(&before, &s, &mut own);
         }
-        defaults.0 = s;
+        copy_changes(&before, &s, &mut defaults.0);
     }
     Ok(())
+}
+
+/// Copies into `target` every setting the panel shows that differs between
+/// `before` and `after`, and nothing else.
+fn copy_changes(before: &ClothSettings, after: &ClothSettings, target: &mut ClothSettings) {
+    fn copy<T: PartialEq + Copy>(before: T, after: T, target: &mut T) {
+        if after != before {
+            *target = after;
+        }
+    }
+    let (b, a, t) = (before, after, target);
+    copy(b.model, a.model, &mut t.model);
+    copy(b.integrator, a.integrator, &mut t.integrator);
+    copy(b.substeps, a.substeps, &mut t.substeps);
+    copy(b.gravity, a.gravity, &mut t.gravity);
+    copy(b.damping, a.damping, &mut t.damping);
+    let (b, a, t) = (&b.choi_ko, &a.choi_ko, &mut t.choi_ko);
+    copy(b.stiffness, a.stiffness, &mut t.stiffness);
+    copy(
+        b.bending_rigidity,
+        a.bending_rigidity,
+        &mut t.bending_rigidity,
+    );
+    copy(b.buckling_slope, a.buckling_slope, &mut t.buckling_slope);
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A slider moved on the tablecloth's own settings reaches that cloth
+    /// and the defaults, and leaves alone what the panel does not show
+    /// (its pair damping, the defaults' substeps it did not touch).
+    #[test]
+    fn only_the_changed_fields_are_copied() {
+        let mut own = ClothSettings {
+            substeps: 80,
+            ..default()
+        };
+        own.choi_ko.pair_damping = 0.3;
+        let mut defaults = ClothSettings::default();
+        let before = own.clone();
+        let mut after = before.clone();
+        after.choi_ko.stiffness = 2500.0;
+        copy_changes(&before, &after, &mut own);
+        copy_changes(&before, &after, &mut defaults);
+        assert_eq!(own.choi_ko.stiffness, 2500.0);
+        assert_eq!(own.choi_ko.pair_damping, 0.3);
+        assert_eq!(own.substeps, 80);
+        assert_eq!(defaults.choi_ko.stiffness, 2500.0);
+        assert_eq!(defaults.substeps, ClothSettings::default().substeps);
+        assert_eq!(
+            defaults.choi_ko.pair_damping,
+            ClothSettings::default().choi_ko.pair_damping
+        );
+        let mut lander = before.clone().with_model(ClothModel::Lander);
+        after.model = ClothModel::ChoiKo;
+        after.substeps = 12;
+        copy_changes(&before, &after, &mut lander);
+        assert_eq!((lander.model, lander.substeps), (ClothModel::Lander, 12));
+    }
 }

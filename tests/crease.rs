@@ -112,12 +112,20 @@ fn paper_app() -> App {
     app
 }
 
-fn fold(crease: Crease, lift_hinge: f32) -> f32 {
+/// The fold angle (degrees) `crease` gives a paper-like sheet after 300
+/// frames, from the sheet folded `start` degrees up about column 7 (each
+/// flap turned rigidly by half of it; 0 is flat). A start sets the fold's
+/// direction, and the crease has to close or open it to its own angle.
+fn fold_from(crease: Crease, start: f32) -> f32 {
     let mut app = paper_app();
     let mut cloth = sheet();
-    for j in 0..15 {
-        cloth.particles.positions[j * 15 + 7].y += lift_hinge;
+    let half = (start / 2.0).to_radians();
+    for x in &mut cloth.particles.positions {
+        let dx = x.x;
+        x.x = dx * half.cos();
+        x.y += dx.abs() * half.sin();
     }
+    assert!((fold_angle(&cloth.particles.positions) - start).abs() < 0.1);
     let e = app
         .world_mut()
         .spawn((cloth, ClothCreases(vec![crease])))
@@ -133,15 +141,17 @@ fn fold(crease: Crease, lift_hinge: f32) -> f32 {
 fn the_seed_ratio_folds_about_ninety_one_degrees() {
     // §9.2: r = 0.7 on the axial link centred on the hinge is β = 2 acos 0.7 = 91.1°.
     let middle = Crease::new(Vec2::new(0.5, -0.1), Vec2::new(0.5, 1.1));
-    // The weightless sheet is multistable: which way it settles depends on
-    // rounding early in the fold. With the hinge lifted 2 mm it
-    // settles at 7° (a shallow pleat) where 1.9 and 2.1 mm give 85° and 94°,
-    // so the test takes the median of three lifts.
-    let mut angles = [0.0019, 0.002, 0.0021].map(|lift| fold(middle, lift));
-    angles.sort_by(f32::total_cmp);
-    let angle = angles[1];
-    eprintln!("r = 0.7 folds to {angles:.1?}°, median {angle:.1}°");
-    assert!((angle - 91.1).abs() <= 10.0, "{angle}°");
+    // Started flatter and steeper than that, the fold must come to the same
+    // angle from both sides: it closes from 40° and opens from 150°. When
+    // written, 300 frames gave 95.7° and 96.5°, and 900 frames 94.2° and
+    // 94.9°: the flaps, which §9.2 takes as rigid, still creep near the
+    // hinge.
+    let angles = [40.0, 150.0].map(|start| fold_from(middle, start));
+    eprintln!("r = 0.7 from 40° and 150° folds to {angles:.1?}°");
+    for angle in angles {
+        assert!((angle - 91.1).abs() <= 6.0, "{angles:?}°");
+    }
+    assert!((angles[0] - angles[1]).abs() <= 2.0, "{angles:?}°");
 }
 
 #[test]
@@ -149,7 +159,7 @@ fn a_target_angle_of_45_degrees_folds_to_it() {
     let middle = Crease::new(Vec2::new(0.5, -0.1), Vec2::new(0.5, 1.1))
         .with_angle(45f32.to_radians())
         .with_side(FoldSide::Mountain);
-    let angle = fold(middle, 0.0);
+    let angle = fold_from(middle, 0.0);
     eprintln!("target 45° folds to {angle:.1}°");
     assert!((angle - 45.0).abs() <= 10.0, "{angle}°");
 }

@@ -7,8 +7,10 @@
 //! (`operator.rs`).
 //!
 //! Both solve `A Δv = b` with `A = M(1 + αc) − α D − β K`, where `K = ∂F/∂x`
-//! and `D = ∂F/∂v` come as per-connection 3×3 blocks from
-//! [`assemble`] and `c` is the absolute
+//! and `D = ∂F/∂v` come as per-connection blocks
+//! ([`jacobian`](crate::model::jacobian)), formed for the grid families a
+//! stream at a time together with the forces and the product `K w` the
+//! right-hand side needs (`assemble_streamed`), and `c` is the absolute
 //! damping (`∂(−cMv)/∂v = −cM`):
 //!
 //! | scheme | α | β | b |
@@ -26,14 +28,19 @@ use coarse::Coarse;
 use operator::{Operator, Soa, dot};
 
 use crate::model::Dynamics;
-use crate::model::jacobian::{Block, assemble};
+use crate::model::jacobian::{Block, assemble_streamed};
+use crate::model::streams::ForceStreams;
 use crate::settings::{ImplicitParams, SlackStiffness};
 
 /// Preallocated state of the implicit integrators for one cloth.
 #[derive(Clone, Debug, Default)]
 pub struct ImplicitBuffers {
-    /// Jacobian blocks of the current step.
+    /// Jacobian blocks of the current step's links outside the streams
+    /// (crease springs, links of an unusual step).
     pub blocks: Vec<Block>,
+    /// The grid families by index step, whose forces and blocks are formed
+    /// a stream at a time.
+    streams: ForceStreams,
     /// The operator `A` of the current step, by grid offset.
     op: Operator,
     /// The coarse-grid correction of the preconditioner.
@@ -148,14 +155,7 @@ fn pcg_inner(params: &ImplicitParams, buffers: &mut ImplicitBuffers) -> (u32, f3
         ..
     } = buffers;
     let mut coarse = coarse_active.then_some(coarse);
-    // y = P⁻¹ r: block-Jacobi, plus the coarse correction when it is on.
-    let mut precondition = |op: &Operator, r: &Soa, y: &mut Soa| {
-        op.precondition(r, y);
-        if let Some(c) = coarse.as_mut() {
-            c.add(r, y, &op.free);
-        }
-    };
-    precondition(op, rhs, y);
+    precondition(op, coarse.as_deref_mut(), rhs, y);
     let delta0 = dot(rhs, y);
     if !(delta0 > 0.0 && delta0.is_finite()) {
         dv.zero();
@@ -172,7 +172,7 @@ fn pcg_inner(params: &ImplicitParams, buffers: &mut ImplicitBuffers) -> (u32, f3
                 *ri = bi - qi;
             }
         }
-        precondition(op, r, y);
+        precondition(op, coarse.as_deref_mut(), r, y);
         delta = dot(r, y);
     }
     if delta.is_nan() || delta >= delta0 {
@@ -180,7 +180,7 @@ fn pcg_inner(params: &ImplicitParams, buffers: &mut ImplicitBuffers) -> (u32, f3
         dv.zero();
         r.copy_from(rhs);
         if tried_warm {
-            precondition(op, r, y);
+            precondition(op, coarse.as_deref_mut(), r, y);
         }
         delta = delta0;
     }
@@ -205,7 +205,7 @@ fn pcg_inner(params: &ImplicitParams, buffers: &mut ImplicitBuffers) -> (u32, f3
                 *ri -= alpha * qi;
             }
         }
-        precondition(op, r, y);
+        precondition(op, coarse.as_deref_mut(), r, y);
         let next = dot(r, y);
         let beta = (next / delta) as f32;
         for (d, y) in d.0.iter_mut().zip(&y.0) {
@@ -219,13 +219,25 @@ fn pcg_inner(params: &ImplicitParams, buffers: &mut ImplicitBuffers) -> (u32, f3
     (iterations, (delta / delta0).max(0.0).sqrt() as f32)
 }
 
+/// `y = P⁻¹ r`: block-Jacobi, plus the coarse correction when there is one.
+/// A function rather than a closure, so that it is inlined into (and
+/// compiled for the SIMD width of) each build of [`pcg`]: as a closure it
+/// ran as SSE and took 14 % of a 64×64 frame.
+#[inline(always)]
+fn precondition(op: &Operator, coarse: Option<&mut Coarse>, r: &Soa, y: &mut Soa) {
+    op.precondition(r, y);
+    if let Some(c) = coarse {
+        c.add(r, y, &op.free);
+    }
+}
+
 /// Assembles forces and blocks at `(x, v)`, adds gravity, damping and the
-/// external forces to `buffers.force` (N), and builds the operator
+/// external forces to `buffers.force` (N), writes `K w` (N) into
+/// `buffers.tmp` (`w` in m), and builds the operator
 /// `A = M(1 + αc) − αD − βK` (and the coarse one when it is wanted).
 fn linearise(
     dynamics: &Dynamics,
-    x: &[Vec3],
-    v: &[Vec3],
+    (x, v, w): (&[Vec3], &[Vec3], &[Vec3]),
     alpha: f32,
     beta: f32,
     buffers: &mut ImplicitBuffers,
@@ -240,14 +252,16 @@ fn linearise(
             beta * s.choi_ko.stiffness * lightest > 1.0
         }
     };
-    assemble(
+    assemble_streamed(
         s,
         dynamics.connections,
-        keep_slack,
+        (keep_slack, alpha, beta),
         x,
         v,
-        &mut buffers.force,
+        w,
+        (&mut buffers.force, &mut buffers.tmp),
         &mut buffers.blocks,
+        &mut buffers.streams,
     );
     let external = (dynamics.external.len() == x.len()).then_some(dynamics.external);
     for i in 0..x.len() {
@@ -265,9 +279,9 @@ fn linearise(
     let w = dynamics.inverse_masses;
     buffers.coarse_active = s.implicit.coarse_grid && buffers.coarse.begin(columns, w, mass_scale);
     let coarse = buffers.coarse_active.then_some(&mut buffers.coarse);
-    buffers
-        .op
-        .build(columns, w, mass_scale, &buffers.blocks, alpha, beta, coarse);
+    let terms = (&buffers.blocks[..], buffers.streams.blocks());
+    let op = &mut buffers.op;
+    op.build_with(columns, (w, mass_scale), terms, (alpha, beta), coarse);
     buffers.coarse_active = buffers.coarse_active && buffers.coarse.finish();
 }
 
@@ -305,8 +319,7 @@ fn backward_euler_step(
     h: f32,
     buffers: &mut ImplicitBuffers,
 ) {
-    linearise(dynamics, x, v, h, h * h, buffers);
-    k_times(&buffers.blocks, v, &mut buffers.tmp);
+    linearise(dynamics, (x, v, v), h, h * h, buffers);
     for i in 0..x.len() {
         let rhs = h * (buffers.force[i] + h * buffers.tmp[i]);
         buffers.rhs.set(i, rhs);
@@ -349,11 +362,12 @@ pub fn bdf2(
         return;
     }
     let (alpha, beta) = (2.0 / 3.0 * h, 4.0 / 9.0 * h * h);
-    linearise(dynamics, x, v, alpha, beta, buffers);
     for i in 0..x.len() {
         buffers.w_term[i] = (x[i] - buffers.prev_x[i]) / 3.0 + 2.0 / 3.0 * h * v[i];
     }
-    k_times(&buffers.blocks, &buffers.w_term, &mut buffers.tmp);
+    let w_term = std::mem::take(&mut buffers.w_term);
+    linearise(dynamics, (x, v, &w_term), alpha, beta, buffers);
+    buffers.w_term = w_term;
     for (i, &w) in dynamics.inverse_masses.iter().enumerate() {
         let inertia = if w == 0.0 {
             Vec3::ZERO

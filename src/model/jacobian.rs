@@ -22,6 +22,8 @@
 use bevy::math::{Mat3, Vec3};
 
 use super::choi_ko::{BUCKLING_TABLE, MIN_LENGTH, type2_magnitude};
+use super::kernel::Law;
+use super::streams::{ForceStreams, Linearisation};
 use crate::connections::{ClothConnections, Link};
 use crate::settings::{ClothModel, ClothSettings, Type2Jacobian};
 
@@ -219,6 +221,66 @@ pub fn assemble(
     }
     // The fold-direction term enters as a force only (no Jacobian block).
     crate::connections::fold_forces(&connections.fold, x, f);
+}
+
+/// [`assemble`] with the grid families linearised by stream
+/// ([`streams`](super::streams)), for the implicit integrators: writes the
+/// internal forces (N) into `f` and `K w` (N) into `kw` (`w` in m), keeps
+/// the blocks `C = αD + βK` of the streams in `streams`, and writes only
+/// the blocks of the other links (crease springs, links of an unusual
+/// step) into `blocks`. `alpha` in s, `beta` in s².
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn assemble_streamed(
+    settings: &ClothSettings,
+    connections: &ClothConnections,
+    (keep_slack, alpha, beta): (bool, f32, f32),
+    x: &[Vec3],
+    v: &[Vec3],
+    w: &[Vec3],
+    (f, kw): (&mut [Vec3], &mut [Vec3]),
+    blocks: &mut Vec<Block>,
+    streams: &mut ForceStreams,
+) {
+    let (laws, count) = super::grid_laws(settings, super::grid_families(connections));
+    let laws = &laws[..count];
+    streams.sync(laws.iter().map(|l| l.0), x.len());
+    let full = settings.implicit.type2_jacobian == Type2Jacobian::Full;
+    let lin = Linearisation {
+        alpha,
+        beta,
+        keep_slack,
+        full,
+    };
+    streams.linearise_synced(laws, x, v, w, lin, f, kw);
+    blocks.clear();
+    for (family, &(_, law)) in laws.iter().enumerate() {
+        let others = streams.others(family);
+        match law {
+            Law::Tension { k, kd } => {
+                stretch(others, (k, kd), (false, full, keep_slack), x, v, f, blocks)
+            }
+            Law::Spring { ks, kd } => {
+                stretch(others, (ks, kd), (true, full, false), x, v, f, blocks)
+            }
+            Law::Buckling { kb, cb, .. } => buckle(others, kb, cb, full, x, f, blocks),
+        }
+    }
+    let (k, kd) = match settings.model {
+        ClothModel::ChoiKo => (settings.choi_ko.stiffness, settings.choi_ko.pair_damping),
+        ClothModel::Lander => {
+            let s = settings.lander.structural;
+            (s.stiffness, s.damping)
+        }
+    };
+    let crease = &connections.crease;
+    stretch(crease, (k, kd), (false, full, keep_slack), x, v, f, blocks);
+    crate::connections::fold_forces(&connections.fold, x, f);
+    for blk in blocks.iter() {
+        let (a, b) = (blk.a as usize, blk.b as usize);
+        let t = blk.k_times(w[b] - w[a]);
+        kw[a] += t;
+        kw[b] -= t;
+    }
 }
 
 #[cfg(test)]

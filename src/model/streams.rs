@@ -30,8 +30,10 @@ use std::ops::Range;
 use bevy::math::Vec3;
 
 mod buckling;
+mod linearise;
 
 use buckling::{Buckling, buckling_pairs};
+pub(crate) use linearise::{Linearisation, StreamBlocks};
 
 use super::choi_ko::MIN_LENGTH;
 use super::kernel::{self, Law, Target};
@@ -63,6 +65,11 @@ pub struct ForceStreams {
     /// `g(ℓ/L)` (dimensionless) and `ℓ` (m) of each pair of one Type 2 stream.
     g: Vec<f32>,
     len: Vec<f32>,
+    /// For the implicit integrators' linearisation: the vector `K`
+    /// multiplies (m), `K w` (N) and `g′(ℓ/L)` of one Type 2 stream.
+    w: Soa,
+    kw: Soa,
+    dg: Vec<f32>,
 }
 
 /// The streams of one family and the copy of the links they came from.
@@ -92,6 +99,12 @@ struct Stream {
     /// them, never written) and after the slots (up to `delta` +
     /// [`padded_span`](Self::padded_span), never written either).
     pair: Soa,
+    /// `(K w)` on the lower particle of each pair at the last
+    /// linearisation (N), laid out like `pair`.
+    pair_kw: Soa,
+    /// The blocks `C = t I + s u uᵀ` of each slot at the last
+    /// linearisation: `t`, `s` (kg), `u` by component.
+    blocks: [Vec<f32>; 5],
 }
 
 impl FamilyStreams {
@@ -142,6 +155,8 @@ impl FamilyStreams {
                     rest: Vec::new(),
                     inv_rest: Vec::new(),
                     pair: Soa::default(),
+                    pair_kw: Soa::default(),
+                    blocks: Default::default(),
                 });
             }
             let s = &mut self.streams[k];
@@ -149,7 +164,7 @@ impl FamilyStreams {
             s.rest.clear();
             s.rest.resize((hi - lo).next_multiple_of(LANES), f32::NAN);
             let len = delta + s.padded_span();
-            for c in &mut s.pair.0 {
+            for c in s.pair.0.iter_mut().chain(&mut s.pair_kw.0) {
                 c.clear();
                 c.resize(len, 0.0);
             }
@@ -324,6 +339,7 @@ impl ForceStreams {
         } = e;
         let damped = damped(families);
         let n = x.len();
+        let span = self.span(n);
         let Self {
             families: caches,
             x: xs,
@@ -331,14 +347,10 @@ impl ForceStreams {
             f,
             g,
             len,
+            ..
         } = self;
-        // The farthest particle index any stream's loops touch, the largest
-        // step and the most slots.
-        let (mut span, mut longest) = (n, 0);
-        for s in caches.iter().flat_map(|c| &c.streams) {
-            span = span.max(s.lo + s.padded_span());
-            longest = longest.max(s.rest.len());
-        }
+        let longest = caches.iter().flat_map(|c| &c.streams).map(|s| s.rest.len());
+        let longest = longest.max().unwrap_or(0);
         for s in [&mut *xs, &mut *vs, &mut *f] {
             s.resize(span);
         }
@@ -448,6 +460,15 @@ fn damped(families: &[(&[Link], Law)]) -> bool {
         Law::Tension { kd, .. } | Law::Spring { kd, .. } => kd != 0.0,
         Law::Buckling { .. } => false,
     })
+}
+
+impl ForceStreams {
+    /// The particles the loops touch for `n` particles: `n`, or beyond it up
+    /// to the farthest end of any stream's padded slots.
+    fn span(&self, n: usize) -> usize {
+        let streams = self.families.iter().flat_map(|c| &c.streams);
+        streams.map(|s| s.lo + s.padded_span()).fold(n, usize::max)
+    }
 }
 
 impl Stream {

@@ -125,6 +125,13 @@ impl Coarse {
         true
     }
 
+    /// Whether a pair `(a, b)` adds to `A_c`: its particles lie in different
+    /// aggregates (or one is pinned).
+    #[inline]
+    pub(super) fn joins(&self, a: usize, b: usize) -> bool {
+        self.aggregate[a] != self.aggregate[b]
+    }
+
     /// Adds the block `C` (xx, yy, zz, xy, xz, yz) of the pair `(a, b)`.
     pub(super) fn add_pair(&mut self, a: usize, b: usize, c: &[f32; 6]) {
         let (i, j) = (self.aggregate[a], self.aggregate[b]);
