@@ -218,9 +218,9 @@ fn the_streamed_linearisation_matches_the_block_list() {
     }
 }
 
-/// The two products, by gathered streams (AVX-512, where the CPU has it)
-/// and by scattered ones (every other CPU), agree on a pinned, deformed
-/// cloth with a pair outside the streams.
+/// The products by gathered streams (AVX-512 or AVX2, where the CPU has
+/// them) and by scattered ones (every other CPU) agree on a pinned,
+/// deformed cloth with a pair outside the streams.
 #[test]
 fn the_gathered_and_scattered_products_agree() {
     let (cloth, _, mut blocks) = deformed(12);
@@ -238,15 +238,23 @@ fn the_gathered_and_scattered_products_agree() {
     let (mut a, mut b) = (Soa::default(), Soa::default());
     a.resize(144);
     b.resize(144);
-    op.apply(&d, &mut a);
     op.apply_portable(&d, &mut b);
     let scale = (0..144).map(|i| b.get(i).length()).fold(0.0, f32::max);
     assert!(scale > 0.0);
-    for i in 0..144 {
-        let (p, q) = (a.get(i), b.get(i));
-        assert!((p - q).length() <= 1e-5 * scale, "{i}: {p} vs {q}");
+    let mut check = |product: &dyn Fn(&mut Operator, &mut Soa)| {
+        product(&mut op, &mut a);
+        for i in 0..144 {
+            let (p, q) = (a.get(i), b.get(i));
+            assert!((p - q).length() <= 1e-5 * scale, "{i}: {p} vs {q}");
+        }
+        assert_eq!(a.get(0), Vec3::ZERO, "a pinned row is filtered");
+    };
+    check(&|op, out| op.apply(&d, out));
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma") {
+        // SAFETY: the CPU has AVX2 and FMA, as checked on the line above.
+        check(&|op, out| unsafe { op.gather_avx2(&d, out) });
     }
-    assert_eq!(a.get(0), Vec3::ZERO, "a pinned row is filtered");
 }
 
 #[test]
