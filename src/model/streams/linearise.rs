@@ -52,6 +52,16 @@ pub(crate) struct StreamBlocks<'a> {
     pub u: [&'a [f32]; 3],
 }
 
+/// The inputs of [`ForceStreams::linearise_synced`].
+#[derive(Clone, Copy)]
+struct Input<'a> {
+    families: &'a [(&'a [Link], Law<'a>)],
+    x: &'a [Vec3],
+    v: &'a [Vec3],
+    w: &'a [Vec3],
+    lin: Linearisation,
+}
+
 /// One stream's inputs, the particles at the lower (`a`) and upper (`b`)
 /// ends of its slots, by component: positions, velocities and `w`.
 struct Ends<'a> {
@@ -131,63 +141,47 @@ impl ForceStreams {
         f: &mut [Vec3],
         kw: &mut [Vec3],
     ) {
+        let input = Input {
+            families,
+            x,
+            v,
+            w,
+            lin,
+        };
         #[cfg(target_arch = "x86_64")]
         if std::arch::is_x86_feature_detected!("avx512f") {
             // SAFETY: the CPU has AVX-512F, as checked on the line above.
-            return unsafe { self.linearise_avx512(families, x, v, w, lin, f, kw) };
+            return unsafe { self.linearise_avx512(input, f, kw) };
         } else if std::arch::is_x86_feature_detected!("avx2") {
             // SAFETY: the CPU has AVX2, as checked on the line above.
-            return unsafe { self.linearise_avx2(families, x, v, w, lin, f, kw) };
+            return unsafe { self.linearise_avx2(input, f, kw) };
         }
-        self.linearise_portable(families, x, v, w, lin, f, kw);
+        self.linearise_portable(input, f, kw);
     }
 
     /// [`Self::linearise_synced`] compiled for AVX-512.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx512f")]
-    #[allow(clippy::too_many_arguments)]
-    fn linearise_avx512(
-        &mut self,
-        families: &[(&[Link], Law)],
-        x: &[Vec3],
-        v: &[Vec3],
-        w: &[Vec3],
-        lin: Linearisation,
-        f: &mut [Vec3],
-        kw: &mut [Vec3],
-    ) {
-        self.linearise_portable(families, x, v, w, lin, f, kw);
+    fn linearise_avx512(&mut self, input: Input, f: &mut [Vec3], kw: &mut [Vec3]) {
+        self.linearise_portable(input, f, kw);
     }
 
     /// [`Self::linearise_synced`] compiled for AVX2.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
-    #[allow(clippy::too_many_arguments)]
-    fn linearise_avx2(
-        &mut self,
-        families: &[(&[Link], Law)],
-        x: &[Vec3],
-        v: &[Vec3],
-        w: &[Vec3],
-        lin: Linearisation,
-        f: &mut [Vec3],
-        kw: &mut [Vec3],
-    ) {
-        self.linearise_portable(families, x, v, w, lin, f, kw);
+    fn linearise_avx2(&mut self, input: Input, f: &mut [Vec3], kw: &mut [Vec3]) {
+        self.linearise_portable(input, f, kw);
     }
 
     #[inline(always)]
-    #[allow(clippy::too_many_arguments)]
-    fn linearise_portable(
-        &mut self,
-        families: &[(&[Link], Law)],
-        x: &[Vec3],
-        v: &[Vec3],
-        w: &[Vec3],
-        lin: Linearisation,
-        f_out: &mut [Vec3],
-        kw_out: &mut [Vec3],
-    ) {
+    fn linearise_portable(&mut self, input: Input, f_out: &mut [Vec3], kw_out: &mut [Vec3]) {
+        let Input {
+            families,
+            x,
+            v,
+            w,
+            lin,
+        } = input;
         let n = x.len();
         let span = self.span(n);
         let Self {
