@@ -5,7 +5,6 @@ use super::*;
 use crate::cloth::ClothBuilder;
 use crate::connections::{ClothConnections, Link};
 use crate::model::jacobian::assemble;
-use crate::model::streams::ForceStreams;
 use crate::settings::{ClothModel, ClothSettings};
 
 /// Dense `A` (3n × 3n, f64) from the operator's pairs, pinned rows and
@@ -119,142 +118,6 @@ fn the_streams_give_the_product_of_the_pair_list() {
         );
     }
     assert_eq!(a.get(0), Vec3::ZERO, "a pinned row is filtered");
-}
-
-/// Forms the linearisation of a deformed 12×12 cloth both ways, link by
-/// link ([`assemble`], [`k_times`], [`Operator::build`]) and by stream
-/// ([`assemble_streamed`]), and checks that the forces, `K w`, the
-/// operator's product and the coarse correction agree, for each model and
-/// choice of blocks, with a crease spring and a link of an unusual step.
-#[test]
-fn the_streamed_linearisation_matches_the_block_list() {
-    use crate::model::jacobian::assemble_streamed;
-    use crate::settings::Type2Jacobian;
-    let n = 144;
-    let h = 1.0 / 60.0;
-    let w: Vec<Vec3> = (0..n)
-        .map(|i| Vec3::new((i as f32 * 0.9).sin(), 0.3, (i as f32 * 0.2).cos()))
-        .collect();
-    let close = |p: Vec3, q: Vec3, scale: f32| (p - q).length() <= 1e-4 * scale;
-    let largest = |v: &[Vec3]| v.iter().map(|v| v.length()).fold(0.0, f32::max);
-    let cases = [
-        (ClothModel::ChoiKo, Type2Jacobian::Axial, true),
-        (ClothModel::ChoiKo, Type2Jacobian::Full, false),
-        (ClothModel::Lander, Type2Jacobian::Axial, false),
-    ];
-    for (model, type2, keep_slack) in cases {
-        let (mut cloth, v, _) = deformed(12);
-        let mut s = ClothSettings::default().with_model(model);
-        s.choi_ko.bending_rigidity = 0.05;
-        s.implicit.type2_jacobian = type2;
-        let conn = &mut cloth.connections;
-        let bend = conn.bend[40];
-        conn.crease.push(Link {
-            rest_length: 0.7 * bend.rest_length,
-            ..bend
-        });
-        conn.structural.push(Link {
-            a: 3,
-            b: 50,
-            rest_length: 0.2,
-        });
-        let (conn, x) = (&cloth.connections, &cloth.particles.positions);
-        let inverse_masses = &cloth.particles.inverse_masses;
-        let (mut f0, mut blocks) = (vec![Vec3::ZERO; n], Vec::new());
-        assemble(&s, conn, keep_slack, x, &v, &mut f0, &mut blocks);
-        let mut kw0 = vec![Vec3::ZERO; n];
-        k_times(&blocks, &w, &mut kw0);
-        let (mut f1, mut kw1, mut others) = (vec![Vec3::ZERO; n], vec![Vec3::ZERO; n], Vec::new());
-        let mut streams = ForceStreams::default();
-        let lin = (keep_slack, h, h * h);
-        let out = (&mut f1[..], &mut kw1[..]);
-        assemble_streamed(&s, conn, lin, x, &v, &w, out, &mut others, &mut streams);
-        assert!(others.len() >= 2 && others.len() < 20, "{}", others.len());
-        let (fs, ks) = (largest(&f0), largest(&kw0));
-        for i in 0..n {
-            assert!(
-                close(f1[i], f0[i], fs),
-                "{model:?} force {i}: {} vs {}",
-                f1[i],
-                f0[i]
-            );
-            assert!(
-                close(kw1[i], kw0[i], ks),
-                "{model:?} Kw {i}: {} vs {}",
-                kw1[i],
-                kw0[i]
-            );
-        }
-        let (mut c0, mut c1) = (Coarse::default(), Coarse::default());
-        assert!(c0.begin(12, inverse_masses, 1.1) && c1.begin(12, inverse_masses, 1.1));
-        let (mut op0, mut op1) = (Operator::default(), Operator::default());
-        op0.build(12, inverse_masses, 1.1, &blocks, h, h * h, Some(&mut c0));
-        let terms = (&others[..], streams.blocks());
-        op1.build_with(12, (inverse_masses, 1.1), terms, (h, h * h), Some(&mut c1));
-        assert!(c0.finish() && c1.finish());
-        let mut d = Soa::default();
-        d.resize(n);
-        for (i, w) in w.iter().enumerate() {
-            d.set(i, *w);
-        }
-        let products = [&mut op0, &mut op1].map(|op| {
-            let (mut a, mut y) = (Soa::default(), Soa::default());
-            a.resize(n);
-            y.resize(n);
-            op.apply(&d, &mut a);
-            (a, y)
-        });
-        let [(a0, mut y0), (a1, mut y1)] = products;
-        c0.add(&d, &mut y0, &op0.free);
-        c1.add(&d, &mut y1, &op1.free);
-        let all = |s: &Soa| (0..n).map(|i| s.get(i)).collect::<Vec<_>>();
-        let (a_scale, y_scale) = (largest(&all(&a0)), largest(&all(&y0)));
-        for i in 0..n {
-            let (p, q) = (a1.get(i), a0.get(i));
-            assert!(close(p, q, a_scale), "{model:?} A d at {i}: {p} vs {q}");
-            let (p, q) = (y1.get(i), y0.get(i));
-            assert!(close(p, q, y_scale), "{model:?} coarse at {i}: {p} vs {q}");
-        }
-    }
-}
-
-/// The products by gathered streams (AVX-512 or AVX2, where the CPU has
-/// them) and by scattered ones (every other CPU) agree on a pinned,
-/// deformed cloth with a pair outside the streams.
-#[test]
-fn the_gathered_and_scattered_products_agree() {
-    let (cloth, _, mut blocks) = deformed(12);
-    blocks.push(stray_block(1.0e3));
-    let w = &cloth.particles.inverse_masses;
-    let h = 1.0 / 60.0;
-    let mut op = Operator::default();
-    op.build(12, w, 1.1, &blocks, h, h * h, None);
-    let mut d = Soa::default();
-    d.resize(144);
-    for i in 0..144 {
-        let s = i as f32;
-        d.set(i, Vec3::new(s.sin(), (0.3 * s).cos(), 1.0 - 0.01 * s));
-    }
-    let (mut a, mut b) = (Soa::default(), Soa::default());
-    a.resize(144);
-    b.resize(144);
-    op.apply_portable(&d, &mut b);
-    let scale = (0..144).map(|i| b.get(i).length()).fold(0.0, f32::max);
-    assert!(scale > 0.0);
-    let mut check = |product: &dyn Fn(&mut Operator, &mut Soa)| {
-        product(&mut op, &mut a);
-        for i in 0..144 {
-            let (p, q) = (a.get(i), b.get(i));
-            assert!((p - q).length() <= 1e-5 * scale, "{i}: {p} vs {q}");
-        }
-        assert_eq!(a.get(0), Vec3::ZERO, "a pinned row is filtered");
-    };
-    check(&|op, out| op.apply(&d, out));
-    #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma") {
-        // SAFETY: the CPU has AVX2 and FMA, as checked on the line above.
-        check(&|op, out| unsafe { op.gather_avx2(&d, out) });
-    }
 }
 
 #[test]
@@ -575,3 +438,5 @@ fn backward_euler_is_first_order_and_bdf2_second_order() {
     assert!((0.85..1.15).contains(&be), "backward Euler order {be}");
     assert!((1.7..2.3).contains(&bdf), "BDF2 order {bdf}");
 }
+
+mod streamed;

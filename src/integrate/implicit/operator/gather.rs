@@ -1,0 +1,159 @@
+//! The operator's product in AVX-512 and in AVX2 with FMA: each particle
+//! gathers the terms of every stream with its sums in registers
+//! (see [`Operator::apply`]).
+
+use super::{LANES, Operator, Soa};
+
+#[cfg(target_arch = "x86_64")]
+impl Operator {
+    /// [`Operator::apply`] in AVX-512, sixteen particles at a time: each
+    /// gathers `M(1 + αc) d_p + Σ_δ C_δ[p](d_p − d_{p+δ}) + C_δ[p−δ](d_p −
+    /// d_{p−δ})` over the streams with its sums in registers, and writes
+    /// them once. Where [`apply_portable`](Self::apply_portable) forms each
+    /// stream's products and scatters them to both ends, this loads about
+    /// half as much and stores an eighth: on a 64×64 cloth about 15 µs a
+    /// product rather than 29.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f")]
+    pub(super) fn gather_avx512(&mut self, d: &Soa, out: &mut Soa) {
+        use std::arch::x86_64::*;
+        let (n, pad) = (self.mass.len(), self.pad);
+        for (p, x) in self.padded.0.iter_mut().zip(&d.0) {
+            p[pad..pad + n].copy_from_slice(&x[..n]);
+        }
+        // Every load below reads at most `pad + n + LANES` values of a
+        // stream and `n + 2·pad + LANES` of `padded`, which they hold.
+        let streams_fit = self
+            .streams
+            .iter()
+            .flat_map(|s| [&s.t, &s.s].into_iter().chain(&s.u));
+        assert!(streams_fit.into_iter().all(|c| c.len() >= pad + n + LANES));
+        assert!(self.padded.0.iter().all(|c| c.len() >= n + 2 * pad + LANES));
+        assert!(out.0.iter().all(|c| c.len() >= n) && self.free.len() == n);
+        let [dx, dy, dz] = self.padded.0.each_ref().map(|c| c.as_ptr());
+        for start in (0..n).step_by(LANES) {
+            // The lanes of particles up to the last.
+            let mask: __mmask16 = if n - start >= LANES {
+                !0
+            } else {
+                (1 << (n - start)) - 1
+            };
+            // SAFETY: indices within the lengths asserted above (the masked
+            // loads and stores touch lanes below `n` only).
+            unsafe {
+                let at = |c: *const f32, i: usize| _mm512_loadu_ps(c.add(i));
+                let here = pad + start;
+                let (ax, ay, az) = (at(dx, here), at(dy, here), at(dz, here));
+                let mass = _mm512_maskz_loadu_ps(mask, self.mass.as_ptr().add(start));
+                let mut sx = _mm512_mul_ps(mass, ax);
+                let mut sy = _mm512_mul_ps(mass, ay);
+                let mut sz = _mm512_mul_ps(mass, az);
+                for (&delta, c) in self.deltas.iter().zip(&self.streams) {
+                    let (t, s) = (c.t.as_ptr(), c.s.as_ptr());
+                    let [ux, uy, uz] = c.u.each_ref().map(|c| c.as_ptr());
+                    // C_δ[p] (pair p, p + δ) with e = d_p − d_{p+δ}, then
+                    // C_δ[p − δ] (pair p − δ, p) with e = d_p − d_{p−δ}:
+                    // C e = t e + s (u·e) u.
+                    for (block, other) in [(here, here + delta), (here - delta, here - delta)] {
+                        let ex = _mm512_sub_ps(ax, at(dx, other));
+                        let ey = _mm512_sub_ps(ay, at(dy, other));
+                        let ez = _mm512_sub_ps(az, at(dz, other));
+                        let (bx, by, bz) = (at(ux, block), at(uy, block), at(uz, block));
+                        let along = _mm512_mul_ps(bx, ex);
+                        let along = _mm512_fmadd_ps(by, ey, along);
+                        let along = _mm512_fmadd_ps(bz, ez, along);
+                        let k = _mm512_mul_ps(at(s, block), along);
+                        if c.transverse {
+                            let tb = at(t, block);
+                            sx = _mm512_fmadd_ps(tb, ex, sx);
+                            sy = _mm512_fmadd_ps(tb, ey, sy);
+                            sz = _mm512_fmadd_ps(tb, ez, sz);
+                        }
+                        sx = _mm512_fmadd_ps(k, bx, sx);
+                        sy = _mm512_fmadd_ps(k, by, sy);
+                        sz = _mm512_fmadd_ps(k, bz, sz);
+                    }
+                }
+                // The filter: pinned rows (free = 0) are zero.
+                let free = _mm512_maskz_loadu_ps(mask, self.free.as_ptr().add(start));
+                let keep = _mm512_mask_cmp_ps_mask::<_CMP_NEQ_UQ>(mask, free, _mm512_setzero_ps());
+                for (o, s) in out.0.iter_mut().zip([sx, sy, sz]) {
+                    let o = o.as_mut_ptr().add(start);
+                    _mm512_mask_storeu_ps(o, mask, _mm512_maskz_mov_ps(keep, s));
+                }
+            }
+        }
+        self.apply_others(d, out);
+    }
+
+    /// [`Operator::gather_avx512`] in AVX2 and FMA, eight particles at a
+    /// time, for the many CPUs without AVX-512: on this project's machine
+    /// 23–24.5 µs per 64×64 product against 30.4–31.2 µs for the scattered
+    /// streams compiled for AVX2.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    pub(in crate::integrate::implicit) fn gather_avx2(&mut self, d: &Soa, out: &mut Soa) {
+        use std::arch::x86_64::*;
+        const WIDTH: usize = 8;
+        let (n, pad) = (self.mass.len(), self.pad);
+        for (p, x) in self.padded.0.iter_mut().zip(&d.0) {
+            p[pad..pad + n].copy_from_slice(&x[..n]);
+        }
+        // As in the AVX-512 product: loads stay within these lengths.
+        let streams_fit = self
+            .streams
+            .iter()
+            .flat_map(|s| [&s.t, &s.s].into_iter().chain(&s.u));
+        assert!(streams_fit.into_iter().all(|c| c.len() >= pad + n + LANES));
+        assert!(self.padded.0.iter().all(|c| c.len() >= n + 2 * pad + LANES));
+        assert!(out.0.iter().all(|c| c.len() >= n) && self.free.len() == n);
+        let [dx, dy, dz] = self.padded.0.each_ref().map(|c| c.as_ptr());
+        let lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+        for start in (0..n).step_by(WIDTH) {
+            // All ones in the lanes of particles up to the last.
+            let mask = _mm256_cmpgt_epi32(_mm256_set1_epi32((n - start) as i32), lane);
+            // SAFETY: indices within the lengths asserted above (the masked
+            // loads and stores touch lanes below `n` only).
+            unsafe {
+                let at = |c: *const f32, i: usize| _mm256_loadu_ps(c.add(i));
+                let here = pad + start;
+                let (ax, ay, az) = (at(dx, here), at(dy, here), at(dz, here));
+                let mass = _mm256_maskload_ps(self.mass.as_ptr().add(start), mask);
+                let mut sx = _mm256_mul_ps(mass, ax);
+                let mut sy = _mm256_mul_ps(mass, ay);
+                let mut sz = _mm256_mul_ps(mass, az);
+                for (&delta, c) in self.deltas.iter().zip(&self.streams) {
+                    let (t, s) = (c.t.as_ptr(), c.s.as_ptr());
+                    let [ux, uy, uz] = c.u.each_ref().map(|c| c.as_ptr());
+                    for (block, other) in [(here, here + delta), (here - delta, here - delta)] {
+                        let ex = _mm256_sub_ps(ax, at(dx, other));
+                        let ey = _mm256_sub_ps(ay, at(dy, other));
+                        let ez = _mm256_sub_ps(az, at(dz, other));
+                        let (bx, by, bz) = (at(ux, block), at(uy, block), at(uz, block));
+                        let along = _mm256_mul_ps(bx, ex);
+                        let along = _mm256_fmadd_ps(by, ey, along);
+                        let along = _mm256_fmadd_ps(bz, ez, along);
+                        let k = _mm256_mul_ps(at(s, block), along);
+                        if c.transverse {
+                            let tb = at(t, block);
+                            sx = _mm256_fmadd_ps(tb, ex, sx);
+                            sy = _mm256_fmadd_ps(tb, ey, sy);
+                            sz = _mm256_fmadd_ps(tb, ez, sz);
+                        }
+                        sx = _mm256_fmadd_ps(k, bx, sx);
+                        sy = _mm256_fmadd_ps(k, by, sy);
+                        sz = _mm256_fmadd_ps(k, bz, sz);
+                    }
+                }
+                // The filter: pinned rows (free = 0) are zero.
+                let free = _mm256_maskload_ps(self.free.as_ptr().add(start), mask);
+                let keep = _mm256_cmp_ps::<_CMP_NEQ_UQ>(free, _mm256_setzero_ps());
+                for (o, s) in out.0.iter_mut().zip([sx, sy, sz]) {
+                    let o = o.as_mut_ptr().add(start);
+                    _mm256_maskstore_ps(o, mask, _mm256_and_ps(s, keep));
+                }
+            }
+        }
+        self.apply_others(d, out);
+    }
+}
