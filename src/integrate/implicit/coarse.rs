@@ -163,11 +163,39 @@ impl Coarse {
     /// Factors `A_c`; `false` if a block coupled aggregates that are not
     /// neighbours or a pivot was not positive.
     pub(super) fn finish(&mut self) -> bool {
-        !self.unusable && self.factor()
+        if self.unusable {
+            return false;
+        }
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx512f") {
+            // SAFETY: the CPU has AVX-512F, as checked on the line above.
+            return unsafe { self.factor_avx512() };
+        } else if std::arch::is_x86_feature_detected!("avx2")
+            && std::arch::is_x86_feature_detected!("fma")
+        {
+            // SAFETY: the CPU has AVX2 and FMA, as checked just above.
+            return unsafe { self.factor_avx2() };
+        }
+        self.factor()
+    }
+
+    /// [`Coarse::factor`] compiled for AVX-512.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f")]
+    fn factor_avx512(&mut self) -> bool {
+        self.factor()
+    }
+
+    /// [`Coarse::factor`] compiled for AVX2 and FMA.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    fn factor_avx2(&mut self) -> bool {
+        self.factor()
     }
 
     /// Writes `A_c` into the band and factors it in place; `false` on a
     /// pivot that is not positive.
+    #[inline(always)]
     fn factor(&mut self) -> bool {
         let columns = self.columns;
         let bw = 3 * (columns + 1) + 2;
@@ -199,21 +227,34 @@ impl Coarse {
                 }
             }
         }
-        for i in 0..size {
-            let first = i.saturating_sub(bw);
-            for j in first..=i {
-                // L[i][k] and L[j][k] for k in first..j.
-                let row_i = &band[i * width + first + bw - i..i * width + j + bw - i];
-                let row_j = &band[j * width + first + bw - j..j * width + bw];
-                let sum = band[i * width + j + bw - i] - dot(row_i, row_j);
-                band[i * width + j + bw - i] = if i == j {
-                    if sum.is_nan() || sum <= 0.0 {
-                        return false;
-                    }
-                    sum.sqrt()
-                } else {
-                    sum / band[j * width + bw]
-                };
+        // Right-looking: column k of L, then its outer product off the
+        // rows below, each row's update one contiguous run (no chain of
+        // dependent sums, so it runs as SIMD).
+        let column = &mut self.rc;
+        column.clear();
+        column.resize(bw, 0.0);
+        for k in 0..size {
+            let pivot = band[k * width + bw];
+            if pivot.is_nan() || pivot <= 0.0 {
+                return false;
+            }
+            let pivot = pivot.sqrt();
+            band[k * width + bw] = pivot;
+            let below = (size - 1 - k).min(bw);
+            for (m, c) in column[..below].iter_mut().enumerate() {
+                let i = k + 1 + m;
+                let at = i * width + k + bw - i;
+                band[at] /= pivot;
+                *c = band[at];
+            }
+            for m in 0..below {
+                let i = k + 1 + m;
+                let lik = column[m];
+                // A[i][k+1..=i] −= L[i][k]·L[k+1..=i][k].
+                let row = &mut band[i * width + k + 1 + bw - i..i * width + bw + 1];
+                for (a, &l) in row.iter_mut().zip(&column[..=m]) {
+                    *a -= lik * l;
+                }
             }
         }
         self.inverse_diagonal.clear();
@@ -298,22 +339,4 @@ impl Coarse {
             }
         }
     }
-}
-
-/// `Σ aᵢ·bᵢ` in four independent lanes, so the sum is not one long chain.
-fn dot(a: &[f64], b: &[f64]) -> f64 {
-    let mut lanes = [0.0f64; 4];
-    let (ac, bc) = (a.chunks_exact(4), b.chunks_exact(4));
-    let tail: f64 = ac
-        .remainder()
-        .iter()
-        .zip(bc.remainder())
-        .map(|(x, y)| x * y)
-        .sum();
-    for (x, y) in ac.zip(bc) {
-        for k in 0..4 {
-            lanes[k] += x[k] * y[k];
-        }
-    }
-    lanes.iter().sum::<f64>() + tail
 }
