@@ -177,9 +177,11 @@ pub(super) struct Operator {
     /// there is none, in the `pad` entries before the first and in the
     /// [`LANES`] after the last).
     streams: Vec<RankBlocks>,
-    /// The largest `δ` (particles): the zeros before every stream and on
-    /// both sides of `padded`, so that the AVX-512 product reads `p ± δ`
-    /// of any particle within the arrays.
+    /// The largest `δ` rounded up to [`LANES`] (particles, so that the
+    /// gathered product's loads of a particle's own values line up with
+    /// the arrays' starts): the zeros before every stream and on both
+    /// sides of `padded`, so that the gathered products read `p ± δ` of
+    /// any particle within the arrays.
     pad: usize,
     /// The vector being multiplied, with `pad` zeros before it and
     /// `pad + LANES` after (AVX-512 product only).
