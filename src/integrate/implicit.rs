@@ -28,7 +28,7 @@ use coarse::Coarse;
 use operator::{Operator, Soa, dot};
 
 use crate::model::Dynamics;
-use crate::model::jacobian::{Block, assemble_streamed};
+use crate::model::jacobian::{Block, add_k_times, assemble_streamed};
 use crate::model::streams::ForceStreams;
 use crate::settings::{ImplicitParams, SlackStiffness};
 
@@ -109,11 +109,7 @@ impl ImplicitBuffers {
 /// `out = K w`: `(K w)_a = Σ H (w_b − w_a)`, `(K w)_b = Σ H (w_a − w_b)`.
 pub fn k_times(blocks: &[Block], w: &[Vec3], out: &mut [Vec3]) {
     out.fill(Vec3::ZERO);
-    for blk in blocks {
-        let t = blk.k_times(w[blk.b as usize] - w[blk.a as usize]);
-        out[blk.a as usize] += t;
-        out[blk.b as usize] -= t;
-    }
+    add_k_times(blocks, w, out);
 }
 
 /// Solves `A Δv = b` (b already filtered) into `buffers.dv` by PCG with the

@@ -265,21 +265,21 @@ pub(crate) fn assemble_streamed(
             Law::Buckling { kb, cb, .. } => buckle(others, kb, cb, full, x, f, blocks),
         }
     }
-    let (k, kd) = match settings.model {
-        ClothModel::ChoiKo => (settings.choi_ko.stiffness, settings.choi_ko.pair_damping),
-        ClothModel::Lander => {
-            let s = settings.lander.structural;
-            (s.stiffness, s.damping)
-        }
-    };
     let crease = &connections.crease;
-    stretch(crease, (k, kd), (false, full, keep_slack), x, v, f, blocks);
+    let law = super::crease_constants(settings);
+    stretch(crease, law, (false, full, keep_slack), x, v, f, blocks);
     crate::connections::fold_forces(&connections.fold, x, f);
-    for blk in blocks.iter() {
+    add_k_times(blocks, w, kw);
+}
+
+/// Adds `K w` of `blocks` to `out` (N, `w` in m):
+/// `(K w)_a += H (w_b − w_a)`, `(K w)_b += H (w_a − w_b)`.
+pub fn add_k_times(blocks: &[Block], w: &[Vec3], out: &mut [Vec3]) {
+    for blk in blocks {
         let (a, b) = (blk.a as usize, blk.b as usize);
         let t = blk.k_times(w[b] - w[a]);
-        kw[a] += t;
-        kw[b] -= t;
+        out[a] += t;
+        out[b] -= t;
     }
 }
 

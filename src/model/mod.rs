@@ -144,6 +144,18 @@ fn grid_laws<'a>(
     }
 }
 
+/// The stiffness `k` (N/m) and axial damping `k_d` (N·s/m) of crease
+/// springs: the Type 1 constants, or Lander's structural ones.
+fn crease_constants(settings: &ClothSettings) -> (f32, f32) {
+    match settings.model {
+        ClothModel::ChoiKo => (settings.choi_ko.stiffness, settings.choi_ko.pair_damping),
+        ClothModel::Lander => {
+            let s = settings.lander.structural;
+            (s.stiffness, s.damping)
+        }
+    }
+}
+
 /// The forces of crease springs (Type 1 links of rest length L', MODEL.md
 /// §9.1) and fold-direction terms, which may join any two particles.
 fn extra_forces(
@@ -153,13 +165,7 @@ fn extra_forces(
     v: &[Vec3],
     f: &mut [Vec3],
 ) {
-    let (k, kd) = match settings.model {
-        ClothModel::ChoiKo => (settings.choi_ko.stiffness, settings.choi_ko.pair_damping),
-        ClothModel::Lander => {
-            let s = settings.lander.structural;
-            (s.stiffness, s.damping)
-        }
-    };
+    let (k, kd) = crease_constants(settings);
     let mut out = Target { f, base: 0 };
     let tension = Law::Tension { k, kd };
     kernel::pair_forces(&[(&connections.crease, tension)], x, v, &mut out);

@@ -124,6 +124,19 @@ impl RankBlocks {
     }
 }
 
+/// Adds the block `c` of the pair `(p, q)` to the pair list and to both
+/// ends' diagonal blocks.
+fn push_other(
+    others: &mut Vec<([u32; 2], [f32; 6])>,
+    diag: &mut SymBlocks,
+    (p, q): (usize, usize),
+    c: [f32; 6],
+) {
+    others.push(([p as u32, q as u32], c));
+    diag.add(p, &c);
+    diag.add(q, &c);
+}
+
 /// The components (xx, yy, zz, xy, xz, yz) of `t I + s u uᵀ`.
 #[inline(always)]
 fn sym_of(t: f32, s: f32, u: [f32; 3]) -> [f32; 6] {
@@ -286,9 +299,7 @@ impl Operator {
                 None => {
                     for i in (0..m).filter(|&i| src.t[i] != 0.0 || src.s[i] != 0.0) {
                         let (p, q) = (src.lo + i, src.lo + i + src.delta);
-                        self.others.push(([p as u32, q as u32], block(i)));
-                        diag.add(p, &block(i));
-                        diag.add(q, &block(i));
+                        push_other(&mut self.others, &mut diag, (p, q), block(i));
                     }
                 }
             }
@@ -316,11 +327,7 @@ impl Operator {
             let k = self.deltas.iter().position(|&d| d == q - p);
             match k.filter(|&k| self.streams[k].is_free(pad + p)) {
                 Some(k) => self.streams[k].set(pad + p, t, s, u),
-                None => {
-                    self.others.push(([p as u32, q as u32], c));
-                    diag.add(p, &c);
-                    diag.add(q, &c);
-                }
+                None => push_other(&mut self.others, &mut diag, (p, q), c),
             }
             if let Some(coarse) = coarse.as_deref_mut() {
                 coarse.add_pair(p, q, &c);

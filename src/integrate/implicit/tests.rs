@@ -74,6 +74,22 @@ fn deformed(n: u32) -> (crate::cloth::ClothBundle, Vec<Vec3>, Vec<Block>) {
     (cloth, v, blocks)
 }
 
+/// `n` vectors `f(i)`, stored component by component.
+fn soa(n: usize, f: impl Fn(usize) -> Vec3) -> Soa {
+    let mut s = Soa::default();
+    s.resize(n);
+    for i in 0..n {
+        s.set(i, f(i));
+    }
+    s
+}
+
+/// A smooth but irregular test vector for particle `i` (dimensionless).
+fn wiggle(i: usize) -> Vec3 {
+    let s = i as f32;
+    Vec3::new(s.sin(), (0.3 * s).cos(), 1.0 - 0.01 * s)
+}
+
 /// A crease-like pair of a 9×9 grid that the streams do not hold, with
 /// transverse stiffness `k` (N/m), three times that along its direction.
 fn stray_block(k: f32) -> Block {
@@ -98,16 +114,9 @@ fn the_streams_give_the_product_of_the_pair_list() {
     list.build(0, w, 1.1, &blocks, h, h * h, None);
     let pairs = grid.pairs().len();
     assert!(pairs > 250 && list.pairs().len() == pairs, "{pairs} pairs");
-    let mut d = Soa::default();
-    d.resize(81);
-    for i in 0..81 {
-        let s = i as f32;
-        d.set(i, Vec3::new(s.sin(), (0.3 * s).cos(), 1.0 - 0.01 * s));
-    }
+    let mut d = soa(81, wiggle);
     d.filter(&grid.free);
-    let (mut a, mut b) = (Soa::default(), Soa::default());
-    a.resize(81);
-    b.resize(81);
+    let (mut a, mut b) = (soa(81, |_| Vec3::ZERO), soa(81, |_| Vec3::ZERO));
     grid.apply(&d, &mut a);
     list.apply(&d, &mut b);
     for i in 0..81 {

@@ -76,18 +76,23 @@ fn ends<'a>(q: &'a Soa, a: &Range<usize>, b: &Range<usize>, m: usize) -> [[&'a [
     [window(q, a), window(q, b)].map(|e| e.map(|c| &c[..m]))
 }
 
-/// The inputs of a chunk of slots: the stream's [`Ends`] and four arrays
-/// of per-slot values over the chunk alone.
-struct Chunk<'a> {
+/// The inputs of a chunk of slots: the stream's [`Ends`] and `N` arrays of
+/// per-slot values over the chunk alone.
+struct Chunk<'a, const N: usize> {
     ends: Ends<'a>,
-    per_slot: [&'a [f32]; 4],
+    per_slot: [&'a [f32]; N],
 }
 
 impl<'a> Ends<'a> {
     /// The `len` slots from `start`, with `per_slot` values over the whole
     /// stream.
     #[inline(always)]
-    fn chunk(&self, start: usize, len: usize, per_slot: [&'a [f32]; 4]) -> Chunk<'a> {
+    fn chunk<const N: usize>(
+        &self,
+        start: usize,
+        len: usize,
+        per_slot: [&'a [f32]; N],
+    ) -> Chunk<'a, N> {
         let cut = |c: &'a [f32]| &c[start..start + len];
         let cut_ends = |q: &[[&'a [f32]; 3]; 2]| q.map(|e| e.map(cut));
         Chunk {
@@ -201,7 +206,13 @@ impl ForceStreams {
         }
         scatter(x, xs);
         scatter(v, vs);
-        scatter(w, ws);
+        // Backward Euler multiplies `K` by the velocities themselves.
+        let w_is_v = std::ptr::eq(w, v);
+        if !w_is_v {
+            scatter(w, ws);
+        }
+        let (xs, vs) = (&*xs, &*vs);
+        let ws = if w_is_v { vs } else { &*ws };
         f.zero();
         kw.zero();
         for (cache, &(_, law)) in caches.iter_mut().zip(families) {
@@ -328,11 +339,11 @@ fn stretch_slots(
     let mut local = [[0.0f32; CHUNK]; OUTPUTS];
     for start in (0..m).step_by(CHUNK) {
         let len = CHUNK;
-        let c = p.chunk(start, len, [rest; 4]);
+        let c = p.chunk(start, len, [rest]);
         let [[xa, ya, za], [xb, yb, zb]] = c.ends.x;
         let [[va, vya, vza], [vb, vyb, vzb]] = c.ends.v;
         let [[wa, wya, wza], [wb, wyb, wzb]] = c.ends.w;
-        let rest = c.per_slot[0];
+        let [rest] = c.per_slot;
         cut!(len; xa, ya, za, xb, yb, zb, va, vya, vza, vb, vyb, vzb);
         cut!(len; wa, wya, wza, wb, wyb, wzb, rest);
         for j in 0..len {

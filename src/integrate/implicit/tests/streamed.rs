@@ -79,15 +79,9 @@ fn the_streamed_linearisation_matches_the_block_list() {
         let mut op2 = Operator::default();
         let terms = (&others[..], streams.blocks());
         op2.build_with(0, (inverse_masses, 1.1), terms, (h, h * h), None);
-        let mut d = Soa::default();
-        d.resize(n);
-        for (i, w) in w.iter().enumerate() {
-            d.set(i, *w);
-        }
+        let d = soa(n, |i| w[i]);
         let products = [&mut op0, &mut op1, &mut op2].map(|op| {
-            let (mut a, mut y) = (Soa::default(), Soa::default());
-            a.resize(n);
-            y.resize(n);
+            let (mut a, y) = (soa(n, |_| Vec3::ZERO), soa(n, |_| Vec3::ZERO));
             op.apply(&d, &mut a);
             (a, y)
         });
@@ -153,14 +147,8 @@ fn streams_of_one_step_share_the_operator() {
     op0.build(3, inverse_masses, 1.1, &blocks, h, h * h, None);
     let terms = (&others[..], streams.blocks());
     op1.build_with(3, (inverse_masses, 1.1), terms, (h, h * h), None);
-    let mut d = Soa::default();
-    d.resize(n);
-    for i in 0..n {
-        d.set(i, Vec3::new((i as f32).sin(), 0.5, (i as f32 * 0.7).cos()));
-    }
-    let (mut a0, mut a1) = (Soa::default(), Soa::default());
-    a0.resize(n);
-    a1.resize(n);
+    let d = soa(n, wiggle);
+    let (mut a0, mut a1) = (soa(n, |_| Vec3::ZERO), soa(n, |_| Vec3::ZERO));
     op0.apply(&d, &mut a0);
     op1.apply(&d, &mut a1);
     let scale = (0..n).map(|i| a0.get(i).length()).fold(0.0, f32::max);
@@ -182,15 +170,8 @@ fn the_gathered_and_scattered_products_agree() {
     let h = 1.0 / 60.0;
     let mut op = Operator::default();
     op.build(12, w, 1.1, &blocks, h, h * h, None);
-    let mut d = Soa::default();
-    d.resize(144);
-    for i in 0..144 {
-        let s = i as f32;
-        d.set(i, Vec3::new(s.sin(), (0.3 * s).cos(), 1.0 - 0.01 * s));
-    }
-    let (mut a, mut b) = (Soa::default(), Soa::default());
-    a.resize(144);
-    b.resize(144);
+    let d = soa(144, wiggle);
+    let (mut a, mut b) = (soa(144, |_| Vec3::ZERO), soa(144, |_| Vec3::ZERO));
     op.apply_portable(&d, &mut b);
     let scale = (0..144).map(|i| b.get(i).length()).fold(0.0, f32::max);
     assert!(scale > 0.0);
