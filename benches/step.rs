@@ -1,12 +1,13 @@
 //! `cargo bench --bench step`: force evaluation and one step per integrator
-//! at 15×15, 64×64 and 128×128 (cotton, MODEL.md §11), and a whole 1/60 s
-//! game frame of a 64×64 cloth with a sphere collider and mesh sync.
+//! at 15×15, 64×64 and 128×128 (cotton, MODEL.md §11), and whole frames of
+//! many cloths, a large one and a cloth on a mesh collider. The game frame
+//! of a 64×64 cloth on a sphere is `cargo bench --bench frame`.
+
+mod common;
 
 use std::hint::black_box;
 use std::time::Duration;
 
-use bevy::asset::AssetPlugin;
-use bevy::mesh::Mesh;
 use bevy::prelude::*;
 use bevy::tasks::{ComputeTaskPool, TaskPool};
 use bevy::time::TimeUpdateStrategy;
@@ -18,6 +19,7 @@ use bevy_cloth::model::streams::ForceStreams;
 use bevy_cloth::model::{internal_forces, internal_forces_streamed};
 use bevy_cloth::prelude::*;
 use bevy_cloth::step::step_cloth;
+use common::headless;
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
 
 const SIZES: [u32; 3] = [15, 64, 128];
@@ -153,88 +155,6 @@ fn steps(c: &mut Criterion) {
     group.finish();
 }
 
-/// Frames after the drop that the frame bench times: the cloth has landed
-/// on the sphere by the first and still drapes it at the last (about 10 s
-/// after the drop it slides off and falls for good, which is not the scene).
-const DRAPED: std::ops::Range<u32> = 30..330;
-
-/// Drops a fresh 64×64 cloth onto the sphere, replacing the last one.
-fn drop_cloth(app: &mut App) {
-    let old: Vec<Entity> = app
-        .world_mut()
-        .query_filtered::<Entity, With<ClothParticles>>()
-        .iter(app.world())
-        .collect();
-    for e in old {
-        app.world_mut().despawn(e);
-    }
-    app.world_mut().spawn(
-        ClothBuilder::new(64, 64)
-            .size(1.0, 1.0)
-            .position(Vec3::new(0.0, 1.35, 0.0))
-            .build()
-            .expect("valid"),
-    );
-}
-
-/// One `App::update` = one 1/60 s fixed step plus mesh sync, for a 64×64
-/// cloth draped on a sphere: only frames in [`DRAPED`] are timed, and the
-/// cloth is dropped again whenever it gets past them.
-fn game_frame(c: &mut Criterion) {
-    let mut group = c.benchmark_group("frame_64x64_sphere_mesh");
-    group
-        .measurement_time(Duration::from_secs(5))
-        .sample_size(20);
-    for (integrator, substeps) in [
-        (Integrator::BackwardEuler, 1),
-        (Integrator::Bdf2, 1),
-        (Integrator::SymplecticEuler, 220),
-    ] {
-        let mut app = headless(ClothSettings::default().with_integrator(integrator, substeps));
-        app.world_mut().spawn((
-            ClothCollider::sphere(0.3),
-            Transform::from_xyz(0.0, 1.0, 0.0),
-        ));
-        let mut frame = DRAPED.end;
-        group.bench_function(BenchmarkId::new(integrator.name(), substeps), |b| {
-            b.iter_custom(|iters| {
-                let mut timed = Duration::ZERO;
-                for _ in 0..iters {
-                    if frame == DRAPED.end {
-                        drop_cloth(&mut app);
-                        for _ in 0..DRAPED.start {
-                            app.update();
-                        }
-                        frame = DRAPED.start;
-                    }
-                    let start = std::time::Instant::now();
-                    app.update();
-                    timed += start.elapsed();
-                    frame += 1;
-                }
-                timed
-            })
-        });
-    }
-    group.finish();
-}
-
-/// A headless app with meshes that steps at 60 Hz with `settings` as defaults.
-fn headless(settings: ClothSettings) -> App {
-    let mut app = App::new();
-    app.add_plugins((
-        MinimalPlugins,
-        TransformPlugin,
-        AssetPlugin::default(),
-        ClothPlugin::default(),
-    ))
-    .init_asset::<Mesh>()
-    .insert_resource(Time::<Fixed>::from_hz(60.0))
-    .insert_resource(TimeUpdateStrategy::FixedTimesteps(1))
-    .insert_resource(ClothDefaults(settings));
-    app
-}
-
 /// [`headless`] with `cloths` spawned and five frames run.
 fn settled_app(settings: ClothSettings, cloths: impl IntoIterator<Item = ClothBundle>) -> App {
     let mut app = headless(settings);
@@ -325,5 +245,5 @@ fn mesh_collider(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, forces, steps, game_frame, mesh_collider, scale);
+criterion_group!(benches, forces, steps, mesh_collider, scale);
 criterion_main!(benches);

@@ -4,7 +4,11 @@
 //! coarse-grid correction for grid cloths (`coarse.rs`,
 //! [`ImplicitParams::coarse_grid`](crate::settings::ImplicitParams::coarse_grid)).
 //! The operator is stored by grid offset, so its product runs as SIMD loops
-//! (`operator.rs`).
+//! (`operator.rs`). From 2048 particles the iterations are shared with a
+//! helper thread, each running every pass on half the particles
+//! (`halves.rs`, `team.rs`;
+//! [`ImplicitParams::helper_thread`](crate::settings::ImplicitParams::helper_thread)),
+//! to the same bits as on one thread.
 //!
 //! Both solve `A Δv = b` with `A = M(1 + αc) − α D − β K`, where `K = ∂F/∂x`
 //! and `D = ∂F/∂v` come as per-connection blocks
@@ -22,9 +26,12 @@
 //! are zeroed, so its `Δv` is exactly 0 and it keeps the velocity it was
 //! given (0, or an anchor's). No step allocates once the buffers are warm.
 
+use std::time::Instant;
+
 use bevy::math::Vec3;
 
 use coarse::Coarse;
+use halves::Halves;
 use operator::{Operator, Soa, dot};
 
 use crate::model::Dynamics;
@@ -69,6 +76,13 @@ pub struct ImplicitBuffers {
     pub last_iterations: u32,
     /// `√(rᵀP⁻¹r / bᵀP⁻¹b)` at the end of the last solve (dimensionless).
     pub last_residual: f32,
+    /// Threads the last solve's iterations ran on: 2 when it shared them
+    /// with the helper thread ([`ImplicitParams::helper_thread`]).
+    pub last_threads: u32,
+    /// Whether sharing them pays, by the last solves' times.
+    choice: halves::Choice,
+    /// Whether this step's solve is to share them, as `choice` had it.
+    share: bool,
 }
 
 impl ImplicitBuffers {
@@ -148,8 +162,12 @@ fn pcg_inner(params: &ImplicitParams, buffers: &mut ImplicitBuffers) -> (u32, f3
         warm,
         coarse,
         coarse_active,
+        last_threads: threads,
+        choice,
+        share,
         ..
     } = buffers;
+    *threads = 1;
     let mut coarse = coarse_active.then_some(coarse);
     precondition(op, coarse.as_deref_mut(), rhs, y);
     let delta0 = dot(rhs, y);
@@ -181,8 +199,24 @@ fn pcg_inner(params: &ImplicitParams, buffers: &mut ImplicitBuffers) -> (u32, f3
         delta = delta0;
     }
     *warm = true;
-    d.copy_from(y);
     let tol2 = (params.tolerance as f64).powi(2);
+    let halves = Halves::plan(op, coarse.as_deref());
+    let may_share = halves.is_some() && params.helper_thread;
+    let started = Instant::now();
+    if let Some(halves) = halves
+        && may_share
+        && *share
+        && let Some(claim) = team::claim()
+    {
+        let limits = (delta, delta0, tol2, params.max_iterations);
+        let (iterations, delta) =
+            halves::iterate(&claim, halves, op, coarse, [dv, r, y, q], limits);
+        *threads = 2;
+        choice.record(2, started.elapsed(), iterations);
+        return (iterations, (delta / delta0).max(0.0).sqrt() as f32);
+    }
+    let dot = |a: &Soa, b: &Soa| halves.map_or_else(|| dot(a, b), |h| h.dot(a, b));
+    d.copy_from(y);
     let mut iterations = 0;
     while iterations < params.max_iterations && delta > tol2 * delta0 {
         op.apply(d, q);
@@ -212,6 +246,9 @@ fn pcg_inner(params: &ImplicitParams, buffers: &mut ImplicitBuffers) -> (u32, f3
         delta = next;
         iterations += 1;
     }
+    if may_share {
+        choice.record(1, started.elapsed(), iterations);
+    }
     (iterations, (delta / delta0).max(0.0).sqrt() as f32)
 }
 
@@ -238,6 +275,14 @@ fn linearise(
     beta: f32,
     buffers: &mut ImplicitBuffers,
 ) {
+    buffers.share = x.len() >= halves::MIN_PARTICLES
+        && dynamics.settings.implicit.helper_thread
+        && buffers.choice.share();
+    if buffers.share {
+        // The solve is to share its passes with the helper thread: have it
+        // running by the time the set-up is done.
+        team::wake();
+    }
     let s = dynamics.settings;
     let keep_slack = match s.implicit.slack_stiffness {
         SlackStiffness::Keep => true,
@@ -393,4 +438,6 @@ pub fn bdf2(
 mod tests;
 
 mod coarse;
+mod halves;
 mod operator;
+mod team;

@@ -67,6 +67,8 @@ pub(super) struct Coarse {
     /// A fine row's worth of column sums (restriction, N·s) or of
     /// corrections (prolongation, m/s).
     row: Vec<f32>,
+    /// The same for a second thread ([`halves`](super::halves)).
+    second_row: Vec<f32>,
     /// Whether a block coupled aggregates that are not neighbours.
     unusable: bool,
 }
@@ -122,6 +124,7 @@ impl Coarse {
         self.off.clear();
         self.off.resize(self.count, [Mat3A::ZERO; 4]);
         self.row.resize(columns, 0.0);
+        self.second_row.resize(columns, 0.0);
         true
     }
 
@@ -282,61 +285,168 @@ impl Coarse {
     /// y in m/s), leaving the particles whose `free` is 0 (pins) alone.
     #[inline(always)]
     pub(super) fn add(&mut self, r: &Soa, y: &mut Soa, free: &[f32]) {
-        let (cols, side, ccols) = (self.fine_columns, self.side, self.columns);
-        let (rc, sums) = (&mut self.rc, &mut self.row);
-        // Rᵀ r: the columns of a band of `side` rows summed, then their
-        // runs of `side`, one aggregate each.
-        for (k, comp) in r.0.iter().enumerate() {
-            for (j, band) in comp.chunks(cols * side).enumerate() {
-                // `begin` checked that the rows are whole.
-                sums.copy_from_slice(&band[..cols]);
-                for row in band[cols..].chunks_exact(cols) {
-                    for (s, &x) in sums.iter_mut().zip(row) {
-                        *s += x;
-                    }
-                }
-                for (i, run) in sums.chunks(side).enumerate() {
-                    rc[3 * (j * ccols + i) + k] = run.iter().sum::<f32>() as f64;
+        let mut rc = std::mem::take(&mut self.rc);
+        let mut sums = std::mem::take(&mut self.row);
+        let n = free.len();
+        let (r, mut y) = (r.0.each_ref(), y.0.each_mut());
+        for (j, rc) in rc.chunks_mut(3 * self.columns).enumerate() {
+            let r = r.map(|c| &c[self.band_rows(j, n)]);
+            self.restrict_band(r, rc, &mut sums);
+        }
+        self.solve(&mut rc);
+        for (j, rc) in rc.chunks(3 * self.columns).enumerate() {
+            let rows = self.band_rows(j, n);
+            let y = y.each_mut().map(|c| &mut c[rows.clone()]);
+            self.prolong_band(rc, y, &free[rows.clone()], &mut sums);
+        }
+        self.rc = rc;
+        self.row = sums;
+    }
+
+    /// Particles per band of aggregates (`side` whole grid rows).
+    pub(super) fn band_length(&self) -> usize {
+        self.fine_columns * self.side
+    }
+
+    /// Bands of aggregates.
+    pub(super) fn bands(&self) -> usize {
+        self.count / self.columns
+    }
+
+    /// The coarse right-hand side, lent out with a scratch row for each of
+    /// two threads (for a correction split between them); see
+    /// [`Coarse::put_scratch`].
+    pub(super) fn take_scratch(&mut self) -> (Vec<f64>, [Vec<f32>; 2]) {
+        let rows = [&mut self.row, &mut self.second_row].map(std::mem::take);
+        (std::mem::take(&mut self.rc), rows)
+    }
+
+    /// Takes back what [`Coarse::take_scratch`] lent.
+    pub(super) fn put_scratch(&mut self, (rc, [row, second]): (Vec<f64>, [Vec<f32>; 2])) {
+        (self.rc, self.row, self.second_row) = (rc, row, second);
+    }
+
+    /// `Rᵀ r` of one band of aggregates into its `3 × columns` entries of
+    /// the coarse right-hand side `rc` (N·s): the columns of the band's
+    /// `side` rows summed, then their runs of `side`, one aggregate each.
+    /// `r` holds the band's particles; `sums` is a row of scratch.
+    #[inline(always)]
+    pub(super) fn restrict_band(&self, r: [&[f32]; 3], rc: &mut [f64], sums: &mut [f32]) {
+        let (cols, side) = (self.fine_columns, self.side);
+        for (k, band) in r.into_iter().enumerate() {
+            // `begin` checked that the rows are whole.
+            sums.copy_from_slice(&band[..cols]);
+            for row in band[cols..].chunks_exact(cols) {
+                for (s, &x) in sums.iter_mut().zip(row) {
+                    *s += x;
                 }
             }
+            for (i, run) in sums.chunks(side).enumerate() {
+                rc[3 * i + k] = run.iter().sum::<f32>() as f64;
+            }
         }
+    }
+
+    /// `rc = A_c⁻¹ rc` (N·s in, m/s out) by the Cholesky factor.
+    ///
+    /// Both substitutions go an aggregate (three rows) at a time: its
+    /// three unknowns in scalars, then their columns off the rows beyond
+    /// as vector loops. Row by row, each row's scalar load followed the
+    /// vector store that had just updated it, a store-forwarding stall
+    /// per row: 3.3 µs a solve on a 64×64 cloth, one of the solver's few
+    /// passes that cannot be split between threads.
+    #[inline(always)]
+    pub(super) fn solve(&self, rc: &mut [f64]) {
         let (bw, band, inverse) = (self.bandwidth, &self.band, &self.inverse_diagonal);
+        let below = &self.columns_below;
         let size = rc.len();
-        // L z = Rᵀ r, a column of L at a time.
-        for i in 0..size {
-            let z = rc[i] * inverse[i];
-            rc[i] = z;
-            let below = (size - 1 - i).min(bw);
-            let column = &self.columns_below[i * bw..i * bw + below];
-            for (r, l) in rc[i + 1..i + 1 + below].iter_mut().zip(column) {
-                *r -= l * z;
+        debug_assert!(size.is_multiple_of(3) && bw >= 2);
+        // L z = Rᵀ r. `below[i·bw + k]` is L[i + 1 + k][i].
+        for i in (0..size).step_by(3) {
+            let z0 = rc[i] * inverse[i];
+            let z1 = (rc[i + 1] - below[i * bw] * z0) * inverse[i + 1];
+            let z2 =
+                (rc[i + 2] - below[i * bw + 1] * z0 - below[(i + 1) * bw] * z1) * inverse[i + 2];
+            (rc[i], rc[i + 1], rc[i + 2]) = (z0, z1, z2);
+            // Columns i, i + 1, i + 2 of L off rows i + 3 on: all three
+            // reach row i + bw, the last two one and two rows further.
+            let rows = (size - (i + 3)).min(bw - 2);
+            let c0 = &below[i * bw + 2..i * bw + 2 + rows];
+            let c1 = &below[(i + 1) * bw + 1..(i + 1) * bw + 1 + rows];
+            let c2 = &below[(i + 2) * bw..(i + 2) * bw + rows];
+            let target = &mut rc[i + 3..i + 3 + rows];
+            for (r, ((&l0, &l1), &l2)) in target.iter_mut().zip(c0.iter().zip(c1).zip(c2)) {
+                *r = *r - l0 * z0 - l1 * z1 - l2 * z2;
+            }
+            let row = i + 3 + rows;
+            if row < size {
+                rc[row] =
+                    rc[row] - below[(i + 1) * bw + bw - 1] * z1 - below[(i + 2) * bw + bw - 2] * z2;
+            }
+            if row + 1 < size {
+                rc[row + 1] -= below[(i + 2) * bw + bw - 1] * z2;
             }
         }
-        // Lᵀ e = z, a column of Lᵀ (a row of L) at a time.
+        // Lᵀ e = z. Row i of L holds L[i][j] at `band[i·width + j + bw − i]`.
         let width = bw + 1;
-        for i in (0..size).rev() {
-            let e = rc[i] * inverse[i];
-            rc[i] = e;
-            let first = i.saturating_sub(bw);
-            let row = &band[i * width + first + bw - i..i * width + bw];
-            for (z, l) in rc[first..i].iter_mut().zip(row) {
-                *z -= l * e;
+        let at = |i: usize, j: usize| band[i * width + j + bw - i];
+        for i in (0..size).step_by(3).rev() {
+            let e2 = rc[i + 2] * inverse[i + 2];
+            let e1 = (rc[i + 1] - at(i + 2, i + 1) * e2) * inverse[i + 1];
+            let e0 = (rc[i] - at(i + 2, i) * e2 - at(i + 1, i) * e1) * inverse[i];
+            (rc[i], rc[i + 1], rc[i + 2]) = (e0, e1, e2);
+            // Rows i + 2, i + 1, i of L off rows up to i − 1: all three
+            // reach back to row i + 2 − bw, the last two one and two
+            // rows further.
+            let first = (i + 2).saturating_sub(bw);
+            let rows = i - first;
+            let r2 = &band[(i + 2) * width + first + bw - (i + 2)..][..rows];
+            let r1 = &band[(i + 1) * width + first + bw - (i + 1)..][..rows];
+            let r0 = &band[i * width + first + bw - i..][..rows];
+            let target = &mut rc[first..i];
+            for (z, ((&l2, &l1), &l0)) in target.iter_mut().zip(r2.iter().zip(r1).zip(r0)) {
+                *z = *z - l2 * e2 - l1 * e1 - l0 * e0;
+            }
+            if first >= 1 {
+                let j = first - 1;
+                rc[j] = rc[j] - at(i + 1, j) * e1 - at(i, j) * e0;
+            }
+            if first >= 2 {
+                let j = first - 2;
+                rc[j] -= at(i, j) * e0;
             }
         }
-        // R e, pins left alone: a band's row of corrections, then its rows.
-        for (k, comp) in y.0.iter_mut().enumerate() {
-            let bands = comp.chunks_mut(cols * side).zip(free.chunks(cols * side));
-            for (j, (band, free)) in bands.enumerate() {
-                for (i, run) in sums.chunks_mut(side).enumerate() {
-                    run.fill(rc[3 * (j * ccols + i) + k] as f32);
-                }
-                let rows = band.chunks_exact_mut(cols).zip(free.chunks_exact(cols));
-                for (row, free) in rows {
-                    for ((yi, &f), &e) in row.iter_mut().zip(free).zip(sums.iter()) {
-                        *yi += e * f;
-                    }
+    }
+
+    /// `y += R e` over one band of aggregates, pins left alone: `rc` holds
+    /// the band's `3 × columns` entries of `e` (m/s), `y` and `free` the
+    /// band's particles; a row of corrections is formed in `sums`, then
+    /// added to each of the band's rows.
+    #[inline(always)]
+    pub(super) fn prolong_band(
+        &self,
+        rc: &[f64],
+        y: [&mut [f32]; 3],
+        free: &[f32],
+        sums: &mut [f32],
+    ) {
+        let (cols, side) = (self.fine_columns, self.side);
+        for (k, band) in y.into_iter().enumerate() {
+            for (i, run) in sums.chunks_mut(side).enumerate() {
+                run.fill(rc[3 * i + k] as f32);
+            }
+            let rows = band.chunks_exact_mut(cols).zip(free.chunks_exact(cols));
+            for (row, free) in rows {
+                for ((yi, &f), &e) in row.iter_mut().zip(free).zip(sums.iter()) {
+                    *yi += e * f;
                 }
             }
         }
+    }
+
+    /// The particles of band `j`, of `n` in all.
+    pub(super) fn band_rows(&self, j: usize, n: usize) -> std::ops::Range<usize> {
+        let length = self.band_length();
+        j * length..((j + 1) * length).min(n)
     }
 }

@@ -36,10 +36,19 @@ mod gather;
 /// keep six significant digits, so that the inner loop vectorises.
 #[inline(always)]
 pub(super) fn dot(a: &Soa, b: &Soa) -> f64 {
+    dot_parts(
+        a.0.each_ref().map(|c| &c[..]),
+        b.0.each_ref().map(|c| &c[..]),
+    )
+}
+
+/// [`dot`] of vectors given as their three component arrays.
+#[inline(always)]
+pub(super) fn dot_parts(a: [&[f32]; 3], b: [&[f32]; 3]) -> f64 {
     const LANES: usize = 8;
     const RUN: usize = 32 * LANES;
     let mut total = 0.0f64;
-    for (x, y) in a.0.iter().zip(&b.0) {
+    for (x, y) in a.into_iter().zip(b) {
         for (xs, ys) in x.chunks(RUN).zip(y.chunks(RUN)) {
             let mut lanes = [0.0f32; LANES];
             let (xc, yc) = (xs.chunks_exact(LANES), ys.chunks_exact(LANES));
@@ -424,13 +433,71 @@ impl Operator {
         }
     }
 
+    /// Copies `d` into [`Operator::padded`](Self) and checks the lengths
+    /// the gathered products rely on.
+    pub(super) fn fill_padded(&mut self, d: &Soa) {
+        let (n, pad) = (self.mass.len(), self.pad);
+        for (p, x) in self.padded.0.iter_mut().zip(&d.0) {
+            p[pad..pad + n].copy_from_slice(&x[..n]);
+        }
+        self.check_padded(&self.padded);
+    }
+
+    /// Asserts what the gathered products' loads rely on: every stream
+    /// holds `pad + n + LANES` values and `padded` `n + 2·pad + LANES`.
+    pub(super) fn check_padded(&self, padded: &Soa) {
+        let (n, pad) = (self.mass.len(), self.pad);
+        let streams_fit = self
+            .streams
+            .iter()
+            .flat_map(|s| [&s.t, &s.s].into_iter().chain(&s.u));
+        assert!(streams_fit.into_iter().all(|c| c.len() >= pad + n + LANES));
+        assert!(padded.0.iter().all(|c| c.len() >= n + 2 * pad + LANES));
+        assert!(self.free.len() == n);
+    }
+
+    /// The zeros before a padded vector's values (particles).
+    pub(super) fn pad(&self) -> usize {
+        self.pad
+    }
+
+    /// Lends out the padded vector (for a product split between threads).
+    pub(super) fn take_padded(&mut self) -> Soa {
+        std::mem::take(&mut self.padded)
+    }
+
+    /// Takes back what [`Operator::take_padded`] lent.
+    pub(super) fn put_padded(&mut self, padded: Soa) {
+        self.padded = padded;
+    }
+
+    /// Whether the product can run as [`Operator::gather_range_avx512`] or
+    /// [`Operator::gather_range_avx2`] alone: every pair is in a stream.
+    pub(super) fn streams_only(&self) -> bool {
+        self.others.is_empty()
+    }
+
     /// `y = B⁻¹ r` for the block-Jacobi preconditioner `B`.
     #[inline(always)]
     pub fn precondition(&self, r: &Soa, y: &mut Soa) {
-        let [xx, yy, zz, xy, xz, yz] = &self.precond.0;
         let [rx, ry, rz] = &r.0;
-        let [yx, yy_, yz_] = &mut y.0;
-        let n = self.mass.len();
+        let [yx, yy, yz] = &mut y.0;
+        self.precondition_part([rx, ry, rz], [yx, yy, yz], 0);
+    }
+
+    /// [`Operator::precondition`] of the particles from `first` on, as many
+    /// as `r` holds.
+    #[inline(always)]
+    pub(super) fn precondition_part(
+        &self,
+        [rx, ry, rz]: [&[f32]; 3],
+        [yx, yy_, yz_]: [&mut [f32]; 3],
+        first: usize,
+    ) {
+        let n = rx.len();
+        let [xx, yy, zz, xy, xz, yz] = self.precond.0.each_ref().map(|c| &c[first..first + n]);
+        let (ry, rz) = (&ry[..n], &rz[..n]);
+        let (yx, yy_, yz_) = (&mut yx[..n], &mut yy_[..n], &mut yz_[..n]);
         for i in 0..n {
             let (a, b, c) = (rx[i], ry[i], rz[i]);
             yx[i] = xx[i] * a + xy[i] * b + xz[i] * c;

@@ -449,3 +449,4 @@ fn backward_euler_is_first_order_and_bdf2_second_order() {
 }
 
 mod streamed;
+mod two_threads;

@@ -2,6 +2,8 @@
 //! gathers the terms of every stream with its sums in registers
 //! (see [`Operator::apply`]).
 
+use std::ops::Range;
+
 use super::{LANES, Operator, Soa};
 
 #[cfg(target_arch = "x86_64")]
@@ -16,30 +18,42 @@ impl Operator {
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx512f")]
     pub(super) fn gather_avx512(&mut self, d: &Soa, out: &mut Soa) {
+        self.fill_padded(d);
+        let n = self.mass.len();
+        assert!(out.0.iter().all(|c| c.len() >= n));
+        let padded = self.padded.0.each_ref().map(|c| c.as_ptr());
+        let outs = out.0.each_mut().map(|c| c.as_mut_ptr());
+        // SAFETY: `fill_padded` checked the lengths, and `out` is ours.
+        unsafe { self.gather_range_avx512(padded, outs, 0..n) };
+        self.apply_others(d, out);
+    }
+
+    /// Rows `range` of the product (streams only) of the padded vector at
+    /// `d` (laid out as `padded`), written to `out`.
+    ///
+    /// # Safety
+    /// The CPU has AVX-512F; [`Operator::check_padded`] holds for `d`;
+    /// `out` points to three arrays of at least `n` values whose `range`
+    /// no one else reads or writes meanwhile, and no one writes `d`.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f")]
+    pub(in crate::integrate::implicit) unsafe fn gather_range_avx512(
+        &self,
+        [dx, dy, dz]: [*const f32; 3],
+        out: [*mut f32; 3],
+        range: Range<usize>,
+    ) {
         use std::arch::x86_64::*;
-        let (n, pad) = (self.mass.len(), self.pad);
-        for (p, x) in self.padded.0.iter_mut().zip(&d.0) {
-            p[pad..pad + n].copy_from_slice(&x[..n]);
-        }
-        // Every load below reads at most `pad + n + LANES` values of a
-        // stream and `n + 2·pad + LANES` of `padded`, which they hold.
-        let streams_fit = self
-            .streams
-            .iter()
-            .flat_map(|s| [&s.t, &s.s].into_iter().chain(&s.u));
-        assert!(streams_fit.into_iter().all(|c| c.len() >= pad + n + LANES));
-        assert!(self.padded.0.iter().all(|c| c.len() >= n + 2 * pad + LANES));
-        assert!(out.0.iter().all(|c| c.len() >= n) && self.free.len() == n);
-        let [dx, dy, dz] = self.padded.0.each_ref().map(|c| c.as_ptr());
-        for start in (0..n).step_by(LANES) {
+        let (end, pad) = (range.end, self.pad);
+        for start in range.step_by(LANES) {
             // The lanes of particles up to the last.
-            let mask: __mmask16 = if n - start >= LANES {
+            let mask: __mmask16 = if end - start >= LANES {
                 !0
             } else {
-                (1 << (n - start)) - 1
+                (1 << (end - start)) - 1
             };
-            // SAFETY: indices within the lengths asserted above (the masked
-            // loads and stores touch lanes below `n` only).
+            // SAFETY: indices within the lengths the caller vouches for
+            // (the masked loads and stores touch lanes below `end` only).
             unsafe {
                 let at = |c: *const f32, i: usize| _mm512_loadu_ps(c.add(i));
                 let here = pad + start;
@@ -77,13 +91,11 @@ impl Operator {
                 // The filter: pinned rows (free = 0) are zero.
                 let free = _mm512_maskz_loadu_ps(mask, self.free.as_ptr().add(start));
                 let keep = _mm512_mask_cmp_ps_mask::<_CMP_NEQ_UQ>(mask, free, _mm512_setzero_ps());
-                for (o, s) in out.0.iter_mut().zip([sx, sy, sz]) {
-                    let o = o.as_mut_ptr().add(start);
-                    _mm512_mask_storeu_ps(o, mask, _mm512_maskz_mov_ps(keep, s));
+                for (o, s) in out.into_iter().zip([sx, sy, sz]) {
+                    _mm512_mask_storeu_ps(o.add(start), mask, _mm512_maskz_mov_ps(keep, s));
                 }
             }
         }
-        self.apply_others(d, out);
     }
 
     /// [`Operator::gather_avx512`] in AVX2 and FMA, eight particles at a
@@ -93,27 +105,37 @@ impl Operator {
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma")]
     pub(in crate::integrate::implicit) fn gather_avx2(&mut self, d: &Soa, out: &mut Soa) {
+        self.fill_padded(d);
+        let n = self.mass.len();
+        assert!(out.0.iter().all(|c| c.len() >= n));
+        let padded = self.padded.0.each_ref().map(|c| c.as_ptr());
+        let outs = out.0.each_mut().map(|c| c.as_mut_ptr());
+        // SAFETY: `fill_padded` checked the lengths, and `out` is ours.
+        unsafe { self.gather_range_avx2(padded, outs, 0..n) };
+        self.apply_others(d, out);
+    }
+
+    /// [`Operator::gather_range_avx512`] in AVX2 and FMA.
+    ///
+    /// # Safety
+    /// As for [`Operator::gather_range_avx512`], with AVX2 and FMA.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    pub(in crate::integrate::implicit) unsafe fn gather_range_avx2(
+        &self,
+        [dx, dy, dz]: [*const f32; 3],
+        out: [*mut f32; 3],
+        range: Range<usize>,
+    ) {
         use std::arch::x86_64::*;
         const WIDTH: usize = 8;
-        let (n, pad) = (self.mass.len(), self.pad);
-        for (p, x) in self.padded.0.iter_mut().zip(&d.0) {
-            p[pad..pad + n].copy_from_slice(&x[..n]);
-        }
-        // As in the AVX-512 product: loads stay within these lengths.
-        let streams_fit = self
-            .streams
-            .iter()
-            .flat_map(|s| [&s.t, &s.s].into_iter().chain(&s.u));
-        assert!(streams_fit.into_iter().all(|c| c.len() >= pad + n + LANES));
-        assert!(self.padded.0.iter().all(|c| c.len() >= n + 2 * pad + LANES));
-        assert!(out.0.iter().all(|c| c.len() >= n) && self.free.len() == n);
-        let [dx, dy, dz] = self.padded.0.each_ref().map(|c| c.as_ptr());
+        let (end, pad) = (range.end, self.pad);
         let lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
-        for start in (0..n).step_by(WIDTH) {
+        for start in range.step_by(WIDTH) {
             // All ones in the lanes of particles up to the last.
-            let mask = _mm256_cmpgt_epi32(_mm256_set1_epi32((n - start) as i32), lane);
-            // SAFETY: indices within the lengths asserted above (the masked
-            // loads and stores touch lanes below `n` only).
+            let mask = _mm256_cmpgt_epi32(_mm256_set1_epi32((end - start) as i32), lane);
+            // SAFETY: indices within the lengths the caller vouches for
+            // (the masked loads and stores touch lanes below `end` only).
             unsafe {
                 let at = |c: *const f32, i: usize| _mm256_loadu_ps(c.add(i));
                 let here = pad + start;
@@ -148,12 +170,10 @@ impl Operator {
                 // The filter: pinned rows (free = 0) are zero.
                 let free = _mm256_maskload_ps(self.free.as_ptr().add(start), mask);
                 let keep = _mm256_cmp_ps::<_CMP_NEQ_UQ>(free, _mm256_setzero_ps());
-                for (o, s) in out.0.iter_mut().zip([sx, sy, sz]) {
-                    let o = o.as_mut_ptr().add(start);
-                    _mm256_maskstore_ps(o, mask, _mm256_and_ps(s, keep));
+                for (o, s) in out.into_iter().zip([sx, sy, sz]) {
+                    _mm256_maskstore_ps(o.add(start), mask, _mm256_and_ps(s, keep));
                 }
             }
         }
-        self.apply_others(d, out);
     }
 }
