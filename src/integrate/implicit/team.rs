@@ -213,8 +213,9 @@ pub(super) fn claim() -> Option<Claim> {
 
 impl Claim {
     /// Runs `f(team, 0)` here and `f(team, 1)` on the helper, and returns
-    /// once both are done. A panic in either half is raised here.
-    pub(super) fn run<R>(&self, f: impl Fn(&Team, usize) -> R + Sync) -> R {
+    /// once both are done with the first's result (the helper drops its
+    /// own). A panic in either half is raised here.
+    pub(super) fn run<R: Send>(&self, f: impl Fn(&Team, usize) -> R + Sync) -> R {
         let h = self.0;
         h.team.reset();
         let theirs = |team: &Team| {

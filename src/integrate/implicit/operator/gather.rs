@@ -6,6 +6,11 @@ use std::ops::Range;
 
 use super::{LANES, Operator, Soa};
 
+/// A product kernel over a range of particles
+/// ([`Operator::gather_range_avx512`], [`Operator::gather_range_avx2`]).
+#[cfg(target_arch = "x86_64")]
+type RangeKernel = unsafe fn(&Operator, [*const f32; 3], [*mut f32; 3], Range<usize>);
+
 #[cfg(target_arch = "x86_64")]
 impl Operator {
     /// [`Operator::apply`] in AVX-512, sixteen particles at a time: each
@@ -18,13 +23,25 @@ impl Operator {
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx512f")]
     pub(super) fn gather_avx512(&mut self, d: &Soa, out: &mut Soa) {
+        // SAFETY: this function's own target feature is the kernel's.
+        unsafe { self.gather_whole(d, out, Self::gather_range_avx512) }
+    }
+
+    /// `out = A d` by a range kernel over all particles, then the pairs
+    /// outside the streams.
+    ///
+    /// # Safety
+    /// The CPU has the features `kernel` is compiled for.
+    #[inline(always)]
+    unsafe fn gather_whole(&mut self, d: &Soa, out: &mut Soa, kernel: RangeKernel) {
         self.fill_padded(d);
         let n = self.mass.len();
         assert!(out.0.iter().all(|c| c.len() >= n));
         let padded = self.padded.0.each_ref().map(|c| c.as_ptr());
         let outs = out.0.each_mut().map(|c| c.as_mut_ptr());
-        // SAFETY: `fill_padded` checked the lengths, and `out` is ours.
-        unsafe { self.gather_range_avx512(padded, outs, 0..n) };
+        // SAFETY: `fill_padded` checked the lengths, `out` is ours, and the
+        // caller vouches for the CPU.
+        unsafe { kernel(self, padded, outs, 0..n) };
         self.apply_others(d, out);
     }
 
@@ -105,14 +122,8 @@ impl Operator {
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma")]
     pub(in crate::integrate::implicit) fn gather_avx2(&mut self, d: &Soa, out: &mut Soa) {
-        self.fill_padded(d);
-        let n = self.mass.len();
-        assert!(out.0.iter().all(|c| c.len() >= n));
-        let padded = self.padded.0.each_ref().map(|c| c.as_ptr());
-        let outs = out.0.each_mut().map(|c| c.as_mut_ptr());
-        // SAFETY: `fill_padded` checked the lengths, and `out` is ours.
-        unsafe { self.gather_range_avx2(padded, outs, 0..n) };
-        self.apply_others(d, out);
+        // SAFETY: this function's own target features are the kernel's.
+        unsafe { self.gather_whole(d, out, Self::gather_range_avx2) }
     }
 
     /// [`Operator::gather_range_avx512`] in AVX2 and FMA.
