@@ -318,12 +318,37 @@ fn linearise(
     let columns = dynamics.connections.columns as usize;
     let mass_scale = 1.0 + alpha * s.damping;
     let w = dynamics.inverse_masses;
-    buffers.coarse_active = s.implicit.coarse_grid && buffers.coarse.begin(columns, w, mass_scale);
-    let coarse = buffers.coarse_active.then_some(&mut buffers.coarse);
-    let terms = (&buffers.blocks[..], buffers.streams.blocks());
-    let op = &mut buffers.op;
-    op.build_with(columns, (w, mass_scale), terms, (alpha, beta), coarse);
-    buffers.coarse_active = buffers.coarse_active && buffers.coarse.finish();
+    let ImplicitBuffers {
+        blocks,
+        streams,
+        op,
+        coarse,
+        ..
+    } = buffers;
+    let (blocks, streams) = (&blocks[..], &*streams);
+    let share = buffers.share;
+    let mut build = move || {
+        op.build_with(
+            columns,
+            (w, mass_scale),
+            (blocks, streams.blocks()),
+            (alpha, beta),
+        )
+    };
+    let mut build_coarse = move || {
+        s.implicit.coarse_grid && coarse.begin(columns, w, mass_scale) && {
+            coarse.add_pairs(w.len(), (blocks, streams.blocks()), (alpha, beta));
+            coarse.finish()
+        }
+    };
+    // The coarse grid's assembly and factorisation need only the blocks:
+    // on the helper, when the solve is to share with it, it is awake.
+    let ((), active) = if share {
+        team::both(build, build_coarse)
+    } else {
+        (build(), build_coarse())
+    };
+    buffers.coarse_active = active;
 }
 
 fn solve(dynamics: &Dynamics, buffers: &mut ImplicitBuffers) {

@@ -26,7 +26,9 @@
 
 use bevy::math::{Mat3A, Vec3};
 
-use super::operator::{Soa, sym_matrix};
+use super::operator::{Soa, rank_block, sym_matrix, sym_of};
+use crate::model::jacobian::Block;
+use crate::model::streams::StreamBlocks;
 
 /// Aggregates per side of the coarse grid at most.
 pub const COARSE_SIDE: usize = 8;
@@ -161,6 +163,35 @@ impl Coarse {
         self.diag[lo as usize] += c;
         self.diag[hi as usize] += c;
         self.off[lo as usize][slot] += c;
+    }
+
+    /// Adds every pair of a step of `n` particles that joins two
+    /// aggregates: the blocks `C` formed by stream, then the Jacobian
+    /// `blocks` as `C = αD + βK`, as the operator takes them.
+    pub(super) fn add_pairs<'a>(
+        &mut self,
+        n: usize,
+        (blocks, streamed): (&[Block], impl Iterator<Item = StreamBlocks<'a>>),
+        (alpha, beta): (f32, f32),
+    ) {
+        for src in streamed {
+            // Slots past the last particle hold no link.
+            let m = src.t.len().min(n.saturating_sub(src.lo + src.delta));
+            // Most pairs lie inside one aggregate, where they cancel.
+            for i in 0..m {
+                let (p, q) = (src.lo + i, src.lo + i + src.delta);
+                if self.joins(p, q) && (src.t[i] != 0.0 || src.s[i] != 0.0) {
+                    let c = sym_of(src.t[i], src.s[i], src.u.map(|u| u[i]));
+                    self.add_pair(p, q, &c);
+                }
+            }
+        }
+        for blk in blocks {
+            if let Some((t, s, u)) = rank_block(blk, alpha, beta) {
+                let (p, q) = (blk.a.min(blk.b) as usize, blk.a.max(blk.b) as usize);
+                self.add_pair(p, q, &sym_of(t, s, u));
+            }
+        }
     }
 
     /// Factors `A_c`; `false` if a block coupled aggregates that are not

@@ -25,6 +25,7 @@
 
 use bevy::math::{Mat3, Vec3};
 
+#[cfg(test)]
 use super::coarse::Coarse;
 use crate::model::jacobian::Block;
 use crate::model::streams::StreamBlocks;
@@ -146,9 +147,19 @@ fn push_other(
     diag.add(q, &c);
 }
 
+/// The block `C = αD + βK = t I + s u uᵀ` of a Jacobian block as `(t, s,
+/// u)`, or `None` if it is zero (a dropped slack link, or an undamped,
+/// unstiff one, adds nothing).
+#[inline(always)]
+pub(super) fn rank_block(blk: &Block, alpha: f32, beta: f32) -> Option<(f32, f32, [f32; 3])> {
+    let t = beta * blk.transverse;
+    let s = beta * blk.axial + alpha * blk.damping - t;
+    (t != 0.0 || s != 0.0).then(|| (t, s, blk.u.to_array()))
+}
+
 /// The components (xx, yy, zz, xy, xz, yz) of `t I + s u uᵀ`.
 #[inline(always)]
-fn sym_of(t: f32, s: f32, u: [f32; 3]) -> [f32; 6] {
+pub(super) fn sym_of(t: f32, s: f32, u: [f32; 3]) -> [f32; 6] {
     let su = [s * u[0], s * u[1], s * u[2]];
     [
         t + su[0] * u[0],
@@ -238,23 +249,25 @@ impl Operator {
         coarse: Option<&mut Coarse>,
     ) {
         let masses = (inverse_masses, mass_scale);
-        let terms = (blocks, std::iter::empty());
-        self.build_with(columns, masses, terms, (alpha, beta), coarse);
+        self.build_with(columns, masses, (blocks, std::iter::empty()), (alpha, beta));
+        if let Some(coarse) = coarse {
+            let n = inverse_masses.len();
+            coarse.add_pairs(n, (blocks, std::iter::empty()), (alpha, beta));
+        }
     }
 
     /// Builds `A` from the Jacobian `blocks` (as `C = αD + βK`) and from
     /// blocks `C` already formed by stream (`streamed`, from
     /// [`ForceStreams::blocks`](crate::model::streams::ForceStreams::blocks)),
-    /// given the inverse masses (1/kg, 0 pins) and the mass scale `1 + αc`;
-    /// feeds every pair to `coarse` when given. `columns` is the grid's row
-    /// length (0 for none).
+    /// given the inverse masses (1/kg, 0 pins) and the mass scale `1 + αc`.
+    /// `columns` is the grid's row length (0 for none). The coarse grid
+    /// takes the same pairs separately ([`Coarse::add_pairs`]).
     pub fn build_with<'a>(
         &mut self,
         columns: usize,
         (inverse_masses, mass_scale): (&[f32], f32),
         (blocks, streamed): (&[Block], impl Iterator<Item = StreamBlocks<'a>>),
         (alpha, beta): (f32, f32),
-        mut coarse: Option<&mut Coarse>,
     ) {
         let n = inverse_masses.len();
         self.deltas.clear();
@@ -312,34 +325,17 @@ impl Operator {
                     }
                 }
             }
-            if let Some(coarse) = coarse.as_deref_mut() {
-                // Most pairs lie inside one aggregate, where they cancel.
-                for i in 0..m {
-                    let (p, q) = (src.lo + i, src.lo + i + src.delta);
-                    if coarse.joins(p, q) && (src.t[i] != 0.0 || src.s[i] != 0.0) {
-                        coarse.add_pair(p, q, &block(i));
-                    }
-                }
-            }
         }
         for blk in blocks {
-            // C = αD + βK = t I + s u uᵀ.
-            let t = beta * blk.transverse;
-            let s = beta * blk.axial + alpha * blk.damping - t;
-            if t == 0.0 && s == 0.0 {
-                // A dropped slack link (or an undamped, unstiff one) adds nothing.
+            let Some((t, s, u)) = rank_block(blk, alpha, beta) else {
                 continue;
-            }
-            let u = blk.u.to_array();
+            };
             let c = sym_of(t, s, u);
             let (p, q) = (blk.a.min(blk.b) as usize, blk.a.max(blk.b) as usize);
             let k = self.deltas.iter().position(|&d| d == q - p);
             match k.filter(|&k| self.streams[k].is_free(pad + p)) {
                 Some(k) => self.streams[k].set(pad + p, t, s, u),
                 None => push_other(&mut self.others, &mut diag, (p, q), c),
-            }
-            if let Some(coarse) = coarse.as_deref_mut() {
-                coarse.add_pair(p, q, &c);
             }
         }
         for s in &mut self.streams {

@@ -200,6 +200,39 @@ pub(super) fn wake() {
     }
 }
 
+/// Runs `here` on this thread and `there` on the helper at once when the
+/// helper can be had, else one after the other here; returns both results.
+pub(super) fn both<A: Send, B: Send>(
+    here: impl FnOnce() -> A + Send,
+    there: impl FnOnce() -> B + Send,
+) -> (A, B) {
+    let Some(claim) = claim() else {
+        return (here(), there());
+    };
+    fn take<T>(m: &Mutex<Option<T>>) -> Option<T> {
+        m.lock().unwrap_or_else(|e| e.into_inner()).take()
+    }
+    let (here, there, theirs) = (
+        Mutex::new(Some(here)),
+        Mutex::new(Some(there)),
+        Mutex::new(None),
+    );
+    let mine = claim.run(|_, part| {
+        if part == 0 {
+            take(&here).map(|f| f())
+        } else {
+            let result = take(&there).map(|f| f());
+            *theirs.lock().unwrap_or_else(|e| e.into_inner()) = result;
+            None
+        }
+    });
+    let theirs = theirs.into_inner().unwrap_or_else(|e| e.into_inner());
+    match (mine, theirs) {
+        (Some(a), Some(b)) => (a, b),
+        _ => unreachable!("`run` runs both halves once"),
+    }
+}
+
 /// The helper, claimed for one solve.
 pub(super) struct Claim(&'static Helper, #[allow(dead_code)] MutexGuard<'static, ()>);
 

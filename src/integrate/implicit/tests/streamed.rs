@@ -73,12 +73,13 @@ fn the_streamed_linearisation_matches_the_block_list() {
         let (mut op0, mut op1) = (Operator::default(), Operator::default());
         op0.build(12, inverse_masses, 1.1, &blocks, h, h * h, Some(&mut c0));
         let terms = (&others[..], streams.blocks());
-        op1.build_with(12, (inverse_masses, 1.1), terms, (h, h * h), Some(&mut c1));
+        op1.build_with(12, (inverse_masses, 1.1), terms, (h, h * h));
+        c1.add_pairs(n, (&others[..], streams.blocks()), (h, h * h));
         assert!(c0.finish() && c1.finish());
         // Without a grid (`columns` 0) every streamed block goes to the pair list.
         let mut op2 = Operator::default();
         let terms = (&others[..], streams.blocks());
-        op2.build_with(0, (inverse_masses, 1.1), terms, (h, h * h), None);
+        op2.build_with(0, (inverse_masses, 1.1), terms, (h, h * h));
         let d = soa(n, |i| w[i]);
         let products = [&mut op0, &mut op1, &mut op2].map(|op| {
             let (mut a, y) = (soa(n, |_| Vec3::ZERO), soa(n, |_| Vec3::ZERO));
@@ -146,7 +147,7 @@ fn streams_of_one_step_share_the_operator() {
     let (mut op0, mut op1) = (Operator::default(), Operator::default());
     op0.build(3, inverse_masses, 1.1, &blocks, h, h * h, None);
     let terms = (&others[..], streams.blocks());
-    op1.build_with(3, (inverse_masses, 1.1), terms, (h, h * h), None);
+    op1.build_with(3, (inverse_masses, 1.1), terms, (h, h * h));
     let d = soa(n, wiggle);
     let (mut a0, mut a1) = (soa(n, |_| Vec3::ZERO), soa(n, |_| Vec3::ZERO));
     op0.apply(&d, &mut a0);
