@@ -134,8 +134,11 @@ pub struct ImplicitParams {
     /// Whether a grid cloth of at least 2048 particles shares the passes
     /// of its conjugate gradient with a helper thread
     /// ([`implicit`](crate::integrate::implicit)): on this project's
-    /// 2-core machine a 64×64 solve takes about 1.2 ms rather than 2. The
-    /// result is bitwise the same either way. On by default.
+    /// 2-core machine a 64×64 solve takes about 1.2 ms rather than 2. It
+    /// also lets such a cloth, with any integrator, resolve its contacts in
+    /// two halves on the two threads
+    /// ([`collision::SPLIT_PARTICLES`](crate::collision::SPLIT_PARTICLES)).
+    /// The result is bitwise the same either way. On by default.
     pub helper_thread: bool,
 }
 

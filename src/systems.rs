@@ -119,11 +119,12 @@ pub(crate) fn step_cloths(
             .filter(|(s, _)| s.thickness.is_finite() && s.thickness > 0.0)
             .map(|(s, buffers)| (item.cloth, s.thickness, &mut buffers.0));
         let near = &scratch.near;
+        let helper = settings.implicit.helper_thread;
         let hook = (!near.is_empty() || self_collision.is_some()).then_some(
             |sub: Substep, start: &[Vec3], x: &mut [Vec3], v: &mut [Vec3], w: &[f32]| {
                 let own = self_collision.as_mut().map(|(c, t, b)| (*c, *t, &mut **b));
                 let (against, itself) =
-                    resolve_substep(&scene, near, thickness, own, sub, start, x, v, w);
+                    resolve_substep(&scene, near, (thickness, helper), own, sub, start, x, v, w);
                 for (total, n) in totals.iter().zip([
                     against.tests,
                     against.contacts,

@@ -43,6 +43,7 @@ use bevy::prelude::*;
 use bevy::time::Fixed;
 
 use crate::cloth::{Cloth, ClothError};
+use crate::integrate::implicit::team::both;
 use crate::particles::ClothParticles;
 use crate::pose::WorldPose;
 use crate::schedule::ClothSystems;
@@ -308,11 +309,18 @@ impl ColliderScene {
     }
 }
 
+/// Particles from which a cloth's contacts with each collider are resolved
+/// in two halves, one on the implicit solver's helper thread, when
+/// [`ImplicitParams::helper_thread`](crate::settings::ImplicitParams::helper_thread)
+/// allows (the result is the same either way).
+pub const SPLIT_PARTICLES: usize = 2048;
+
 /// Resolves the contacts of one substep of one cloth: against the scene's
 /// colliders listed in `near` (thickness `thickness` m), then with itself
-/// when `self_collision` is given. The ECS step calls this from the
-/// integrator's contact hook; it is a plain function so it can be tested
-/// and benched without an `App`.
+/// when `self_collision` is given; with `helper`, a cloth of
+/// [`SPLIT_PARTICLES`] or more shares the work with the helper thread. The
+/// ECS step calls this from the integrator's contact hook; it is a plain
+/// function so it can be tested and benched without an `App`.
 #[expect(
     clippy::too_many_arguments,
     reason = "a plain function over the cloth's slices"
@@ -320,7 +328,7 @@ impl ColliderScene {
 pub fn resolve_substep(
     scene: &ColliderScene,
     near: &[usize],
-    thickness: f32,
+    (thickness, helper): (f32, bool),
     self_collision: Option<(&Cloth, f32, &mut SelfCollisionBuffers)>,
     sub: crate::step::Substep,
     start: &[Vec3],
@@ -331,7 +339,22 @@ pub fn resolve_substep(
     let mut against = Counts::default();
     for &c in near {
         let collider = scene.colliders[c].between(sub.from, sub.to);
-        against += collide_particles(&collider, start, x, v, inverse_masses, thickness, sub.dt);
+        let collide =
+            |start, x, v, w| collide_particles(&collider, start, x, v, w, thickness, sub.dt);
+        if !helper || x.len() < SPLIT_PARTICLES {
+            against += collide(start, x, v, inverse_masses);
+            continue;
+        }
+        // Each particle's contact is its own: half of them on the solver's
+        // helper thread, to the same result.
+        let mid = x.len() / 2;
+        let (x0, x1) = x.split_at_mut(mid);
+        let (v0, v1) = v.split_at_mut(mid);
+        let (s0, s1) = start.split_at(mid);
+        let (w0, w1) = inverse_masses.split_at(mid);
+        let (a, b) = both(|| collide(s0, x0, v0, w0), || collide(s1, x1, v1, w1));
+        against += a;
+        against += b;
     }
     let mut itself = Counts::default();
     if let Some((cloth, self_thickness, buffers)) = self_collision {

@@ -465,4 +465,4 @@ mod tests;
 mod coarse;
 mod halves;
 mod operator;
-mod team;
+pub(crate) mod team;

@@ -202,7 +202,7 @@ pub(super) fn wake() {
 
 /// Runs `here` on this thread and `there` on the helper at once when the
 /// helper can be had, else one after the other here; returns both results.
-pub(super) fn both<A: Send, B: Send>(
+pub(crate) fn both<A: Send, B: Send>(
     here: impl FnOnce() -> A + Send,
     there: impl FnOnce() -> B + Send,
 ) -> (A, B) {
