@@ -94,7 +94,11 @@ impl<'a> Ends<'a> {
         per_slot: [&'a [f32]; N],
     ) -> Chunk<'a, N> {
         let cut = |c: &'a [f32]| &c[start..start + len];
-        let cut_ends = |q: &[[&'a [f32]; 3]; 2]| q.map(|e| e.map(cut));
+        // Written out: `array::map` here was not inlined, and this runs per
+        // chunk of sixteen slots (1.5 % of a 64×64 frame by `perf`).
+        let cut_ends = |&[[a0, a1, a2], [b0, b1, b2]]: &[[&'a [f32]; 3]; 2]| {
+            [[cut(a0), cut(a1), cut(a2)], [cut(b0), cut(b1), cut(b2)]]
+        };
         Chunk {
             ends: Ends {
                 x: cut_ends(&self.x),
