@@ -162,6 +162,14 @@ pub fn nearest(particles: &ClothParticles, point: Vec3) -> Option<u32> {
         .map(|(i, _)| i as u32)
 }
 
+/// Run condition of the grab systems: some cloth holds or has just let go
+/// of a particle.
+pub(crate) fn grabs_active(cloths: Query<&ClothGrabs>) -> bool {
+    cloths
+        .iter()
+        .any(|g| !g.grabs.is_empty() || !g.released.is_empty())
+}
+
 /// [`ClothSystems::Forces`](crate::ClothSystems::Forces): kinematic grabs
 /// take the velocity that reaches their target by the step's end; spring
 /// grabs add their force.

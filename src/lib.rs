@@ -87,6 +87,7 @@ pub mod wind;
 
 use bevy::app::{App, FixedUpdate, Plugin};
 use bevy::ecs::schedule::IntoScheduleConfigs;
+use bevy::ecs::schedule::common_conditions::any_with_component;
 
 pub use crate::anchor::{Anchor, ClothAnchors};
 pub use crate::cloth::{Cloth, ClothBuilder, ClothBundle, ClothError, GridCorner, GridEdge};
@@ -159,21 +160,27 @@ impl Plugin for ClothPlugin {
             .add_systems(
                 FixedUpdate,
                 (
-                    anchor::follow_anchors.in_set(Prepare),
+                    // A system with nothing to do is skipped by its run
+                    // condition, which costs no hand-off to a pool thread.
+                    anchor::follow_anchors
+                        .run_if(any_with_component::<ClothAnchors>)
+                        .in_set(Prepare),
                     (
-                        interaction::apply_grabs,
+                        interaction::apply_grabs.run_if(interaction::grabs_active),
                         wind::apply_wind.run_if(wind::wind_blows),
                     )
                         .chain()
                         .in_set(Forces),
-                    crease::update_creases.in_set(Crease),
+                    crease::update_creases
+                        .run_if(any_with_component::<crease::ClothCreases>)
+                        .in_set(Crease),
                     systems::step_cloths.in_set(Integrate),
                     (
-                        anchor::snap_anchors,
-                        interaction::snap_grabs,
+                        anchor::snap_anchors.run_if(any_with_component::<ClothAnchors>),
+                        interaction::snap_grabs.run_if(interaction::grabs_active),
                         systems::finish_step,
                         systems::report_divergence,
-                        schedule::consume_step,
+                        schedule::consume_step.run_if(schedule::paused),
                     )
                         .chain()
                         .in_set(Writeback),

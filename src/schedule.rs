@@ -56,6 +56,11 @@ pub fn cloth_running(pause: Option<Res<ClothPause>>) -> bool {
     pause.is_none_or(|p| !p.paused || p.steps > 0)
 }
 
+/// Run condition of [`consume_step`]: the simulation is paused.
+pub(crate) fn paused(pause: Option<Res<ClothPause>>) -> bool {
+    pause.is_some_and(|p| p.paused)
+}
+
 /// Uses up one single step at the end of a paused fixed step.
 pub(crate) fn consume_step(pause: Option<ResMut<ClothPause>>) {
     if let Some(mut pause) = pause
