@@ -84,3 +84,35 @@ fn steps_under_a_changing_crease_allocate_nothing() {
         assert!(cloth.particles.is_finite());
     }
 }
+
+/// A 48×48 implicit cloth, whose solve shares its iterations with the
+/// helper thread, allocates nothing once warm either.
+#[test]
+fn implicit_steps_shared_with_the_helper_allocate_nothing() {
+    for integrator in [Integrator::BackwardEuler, Integrator::Bdf2] {
+        let mut cloth = scene(48);
+        let settings = ClothSettings::default().with_integrator(integrator, 1);
+        let mut buffers = StepBuffers::new(cloth.particles.len());
+        let mut step = |cloth: &mut ClothBundle| {
+            step_cloth(
+                &mut cloth.particles,
+                &cloth.connections,
+                &settings,
+                &[],
+                &mut buffers,
+                1.0 / 60.0,
+            );
+        };
+        // Warm: buffers sized, the helper spawned, sharing timed both ways.
+        for _ in 0..4 {
+            step(&mut cloth);
+        }
+        let count = allocations(|| {
+            for _ in 0..10 {
+                step(&mut cloth);
+            }
+        });
+        assert_eq!(count, 0, "{integrator:?}: {count} allocations in 10 steps");
+        assert!(cloth.particles.is_finite());
+    }
+}
