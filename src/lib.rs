@@ -83,6 +83,7 @@ pub mod settings;
 mod soa;
 pub mod step;
 mod systems;
+mod team;
 pub mod wind;
 
 use bevy::app::{App, FixedUpdate, Plugin};

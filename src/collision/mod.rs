@@ -43,10 +43,10 @@ use bevy::prelude::*;
 use bevy::time::Fixed;
 
 use crate::cloth::{Cloth, ClothError};
-use crate::integrate::implicit::team::both;
 use crate::particles::ClothParticles;
 use crate::pose::WorldPose;
 use crate::schedule::ClothSystems;
+use crate::team::both;
 pub use contact::Counts;
 use contact::{Geometry, MovingCollider, collide_particles, seed_triangle_pass};
 pub use self_collision::SelfCollisionBuffers;

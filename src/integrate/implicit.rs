@@ -6,7 +6,7 @@
 //! The operator is stored by grid offset, so its product runs as SIMD loops
 //! (`operator.rs`). From 2048 particles the iterations are shared with a
 //! helper thread, each running every pass on half the particles
-//! (`halves.rs`, `team.rs`;
+//! (`halves.rs`, `crate::team`;
 //! [`ImplicitParams::helper_thread`](crate::settings::ImplicitParams::helper_thread)),
 //! to the same bits as on one thread.
 //!
@@ -32,6 +32,8 @@ use bevy::math::Vec3;
 
 use coarse::Coarse;
 use halves::Halves;
+
+use crate::team;
 use operator::{Operator, Soa, dot};
 
 use crate::model::Dynamics;
@@ -465,4 +467,3 @@ mod tests;
 mod coarse;
 mod halves;
 mod operator;
-pub(crate) mod team;

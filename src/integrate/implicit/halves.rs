@@ -21,7 +21,7 @@ use std::ops::Range;
 
 use super::coarse::Coarse;
 use super::operator::{Operator, Soa, dot_parts};
-use super::team::{Claim, Team};
+use crate::team::{Claim, Team};
 
 /// Particles from which a grid cloth's solve is split between two threads.
 /// On a 32×32 cloth (1024) a product takes ~5 µs, too little for the

@@ -4,7 +4,7 @@
 use std::panic::{AssertUnwindSafe, catch_unwind};
 
 use super::*;
-use crate::integrate::implicit::team::{Claim, claim};
+use crate::team::{Claim, claim};
 
 /// The helper, once no other test is using it.
 fn the_helper() -> Claim {

@@ -1,4 +1,6 @@
-//! A second thread for the conjugate gradient of a large cloth.
+//! A helper thread for the work of a large cloth: the implicit solver's
+//! conjugate gradient ([`integrate::implicit`](crate::integrate::implicit)),
+//! the coarse grid's set-up, and contacts (`team::both`).
 //!
 //! The solve of a 64×64 cloth is about 55 iterations of some 35 µs, each a
 //! chain of passes that both need the whole of the last one (the product
@@ -49,7 +51,7 @@ struct Job(*const (dyn Fn(&Team) + Sync));
 unsafe impl Send for Job {}
 
 /// The two threads' meeting points and partial sums.
-pub(super) struct Team {
+pub(crate) struct Team {
     /// Barriers passed, per thread.
     passed: [Line<AtomicU32>; 2],
     /// Partial sums (f64 bits), two slots per thread.
@@ -69,7 +71,7 @@ impl Team {
 
     /// Waits until the other thread has passed as many barriers as this
     /// one (`part` 0 is the calling thread, 1 the helper).
-    pub(super) fn barrier(&self, part: usize) {
+    pub(crate) fn barrier(&self, part: usize) {
         let mine = self.passed[part].0.fetch_add(1, Ordering::AcqRel) + 1;
         let other = &self.passed[1 - part].0;
         let mut spins = 0u32;
@@ -91,7 +93,7 @@ impl Team {
     /// threads add the same two numbers in the same order, so they agree
     /// on the result to the bit. A slot is written again only after the
     /// other thread has passed a later barrier, so after it read it.
-    pub(super) fn sum(&self, part: usize, slot: usize, value: f64) -> f64 {
+    pub(crate) fn sum(&self, part: usize, slot: usize, value: f64) -> f64 {
         self.partial[part].0[slot].store(value.to_bits(), Ordering::Relaxed);
         self.barrier(part);
         let [a, b] =
@@ -191,7 +193,7 @@ impl Helper {
 
 /// Wakes the helper, if there is one, to spin for a job for a few ms: a
 /// step calls this before its set-up, so that the solve finds it running.
-pub(super) fn wake() {
+pub(crate) fn wake() {
     if let Some(h) = HELPER.get().copied().flatten() {
         let until = h.epoch.elapsed() + SPIN_AFTER_WAKE;
         h.spin_until
@@ -234,11 +236,11 @@ pub(crate) fn both<A: Send, B: Send>(
 }
 
 /// The helper, claimed for one solve.
-pub(super) struct Claim(&'static Helper, #[allow(dead_code)] MutexGuard<'static, ()>);
+pub(crate) struct Claim(&'static Helper, #[allow(dead_code)] MutexGuard<'static, ()>);
 
 /// Claims the helper (spawning it on first use), or `None` when it cannot
 /// be had: no thread, or another solve is using it.
-pub(super) fn claim() -> Option<Claim> {
+pub(crate) fn claim() -> Option<Claim> {
     let h = helper()?;
     let guard = h.claim.try_lock().ok()?;
     Some(Claim(h, guard))
@@ -248,7 +250,7 @@ impl Claim {
     /// Runs `f(team, 0)` here and `f(team, 1)` on the helper, and returns
     /// once both are done with the first's result (the helper drops its
     /// own). A panic in either half is raised here.
-    pub(super) fn run<R: Send>(&self, f: impl Fn(&Team, usize) -> R + Sync) -> R {
+    pub(crate) fn run<R: Send>(&self, f: impl Fn(&Team, usize) -> R + Sync) -> R {
         let h = self.0;
         h.team.reset();
         let theirs = |team: &Team| {
