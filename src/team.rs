@@ -27,6 +27,11 @@ use std::sync::{Mutex, MutexGuard, OnceLock};
 use std::thread::Thread;
 use std::time::{Duration, Instant};
 
+/// Particles from which a cloth's work is split with the helper thread:
+/// below, a 32×32 cloth's product takes ~5 µs, too little for the
+/// barriers and the helper's wake-up to pay.
+pub(crate) const SPLIT_PARTICLES: usize = 2048;
+
 /// How long the helper spins for a job before it parks: after a job, and
 /// after [`wake`] (which a step calls before its set-up of ~0.5 ms).
 const SPIN_AFTER_JOB: Duration = Duration::from_micros(100);

@@ -313,7 +313,7 @@ impl ColliderScene {
 /// in two halves, one on the implicit solver's helper thread, when
 /// [`ImplicitParams::helper_thread`](crate::settings::ImplicitParams::helper_thread)
 /// allows (the result is the same either way).
-pub const SPLIT_PARTICLES: usize = 2048;
+pub const SPLIT_PARTICLES: usize = crate::team::SPLIT_PARTICLES;
 
 /// Resolves the contacts of one substep of one cloth: against the scene's
 /// colliders listed in `near` (thickness `thickness` m), then with itself

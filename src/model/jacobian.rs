@@ -250,6 +250,7 @@ pub(crate) fn assemble_streamed(
         beta,
         keep_slack,
         full,
+        split: settings.implicit.helper_thread && x.len() >= crate::team::SPLIT_PARTICLES,
     };
     streams.linearise_synced(laws, x, v, w, lin, f, kw);
     blocks.clear();

@@ -24,9 +24,7 @@ use super::operator::{Operator, Soa, dot_parts};
 use crate::team::{Claim, Team};
 
 /// Particles from which a grid cloth's solve is split between two threads.
-/// On a 32×32 cloth (1024) a product takes ~5 µs, too little for the
-/// barriers and the helper's wake-up to pay.
-pub(super) const MIN_PARTICLES: usize = 2048;
+pub(super) const MIN_PARTICLES: usize = crate::team::SPLIT_PARTICLES;
 
 /// One solve in this many takes the other way than the faster one, so that
 /// a change of conditions (another thread taking the helper's core) is seen.

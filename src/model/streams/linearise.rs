@@ -14,7 +14,8 @@ use std::ops::Range;
 use bevy::math::Vec3;
 
 use super::{
-    ForceStreams, LANES, Soa, Stream, accumulate, gather, length_squared, scatter, window,
+    FamilyStreams, ForceStreams, LANES, Soa, Stream, accumulate, gather, length_squared, scatter,
+    window,
 };
 use crate::connections::Link;
 use crate::model::choi_ko::{BucklingTable, MIN_LENGTH};
@@ -33,6 +34,9 @@ pub(crate) struct Linearisation {
     /// Whether the negative transverse terms are kept (Type 2's, Lander's
     /// compressed springs').
     pub full: bool,
+    /// Whether half of the families' slot values may be formed on the
+    /// helper thread ([`crate::team`]); the result is the same either way.
+    pub split: bool,
 }
 
 /// The blocks of one stream: the pair `(lo + i, lo + i + delta)` has the
@@ -217,8 +221,98 @@ impl ForceStreams {
         }
         let (xs, vs) = (&*xs, &*vs);
         let ws = if w_is_v { vs } else { &*ws };
+        let count = caches.len().min(families.len());
+        let (caches, families) = (&mut caches[..count], &families[..count]);
+        let vectors = (xs, vs, ws);
+        // The slot values of each stream are its own: with `split`, the
+        // first half of the families (Type 1, which need no scratch) on
+        // this thread and the second on the helper thread.
+        let half = count / 2;
+        let scratch_free = |fams: &[(&[Link], Law)]| {
+            fams.iter()
+                .all(|(_, law)| !matches!(law, Law::Buckling { .. }))
+        };
+        if lin.split && half > 0 && scratch_free(&families[..half]) {
+            let (first, second) = caches.split_at_mut(half);
+            let (laws_first, laws_second) = families.split_at(half);
+            let scratch = (g, dg, len);
+            crate::team::both(
+                || Self::slot_values(first, laws_first, vectors, lin, None),
+                || Self::slot_values(second, laws_second, vectors, lin, Some(scratch)),
+            );
+        } else {
+            Self::slot_values(caches, families, vectors, lin, Some((g, dg, len)));
+        }
+        // Then every stream's pair values to both ends, in stream order.
         f.zero();
         kw.zero();
+        for cache in caches.iter() {
+            for s in &cache.streams {
+                accumulate(s, &s.pair, f);
+                accumulate(s, &s.pair_kw, kw);
+            }
+        }
+        gather(f, f_out);
+        gather(kw, kw_out);
+    }
+
+    /// Writes every slot's pair force, `(K w)_a` and block into the streams
+    /// of `caches` (one per law of `families`), from the component vectors
+    /// `(x, v, w)`; `scratch` is for the buckling families' table lookups.
+    /// Compiled for the widest SIMD the CPU has, as it may run on the
+    /// helper thread.
+    fn slot_values(
+        caches: &mut [FamilyStreams],
+        families: &[(&[Link], Law)],
+        vectors: (&Soa, &Soa, &Soa),
+        lin: Linearisation,
+        scratch: Option<Scratch>,
+    ) {
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx512f") {
+            // SAFETY: the CPU has AVX-512F, as checked on the line above.
+            return unsafe { Self::slot_values_avx512(caches, families, vectors, lin, scratch) };
+        } else if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: the CPU has AVX2, as checked on the line above.
+            return unsafe { Self::slot_values_avx2(caches, families, vectors, lin, scratch) };
+        }
+        Self::slot_values_inner(caches, families, vectors, lin, scratch);
+    }
+
+    /// [`Self::slot_values`] compiled for AVX-512.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f")]
+    fn slot_values_avx512(
+        caches: &mut [FamilyStreams],
+        families: &[(&[Link], Law)],
+        vectors: (&Soa, &Soa, &Soa),
+        lin: Linearisation,
+        scratch: Option<Scratch>,
+    ) {
+        Self::slot_values_inner(caches, families, vectors, lin, scratch);
+    }
+
+    /// [`Self::slot_values`] compiled for AVX2.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn slot_values_avx2(
+        caches: &mut [FamilyStreams],
+        families: &[(&[Link], Law)],
+        vectors: (&Soa, &Soa, &Soa),
+        lin: Linearisation,
+        scratch: Option<Scratch>,
+    ) {
+        Self::slot_values_inner(caches, families, vectors, lin, scratch);
+    }
+
+    #[inline(always)]
+    fn slot_values_inner(
+        caches: &mut [FamilyStreams],
+        families: &[(&[Link], Law)],
+        (xs, vs, ws): (&Soa, &Soa, &Soa),
+        lin: Linearisation,
+        mut scratch: Option<Scratch>,
+    ) {
         for (cache, &(_, law)) in caches.iter_mut().zip(families) {
             for stream in &mut cache.streams {
                 let m = stream.slots();
@@ -245,6 +339,9 @@ impl ForceStreams {
                     Law::Tension { k, kd } => stretch_slots(s, &inputs, (k, kd, false), lin, out),
                     Law::Spring { ks, kd } => stretch_slots(s, &inputs, (ks, kd, true), lin, out),
                     Law::Buckling { table, kb, cb } => {
+                        let Some((g, dg, len)) = scratch.as_mut() else {
+                            unreachable!("the caller gives buckling families the scratch");
+                        };
                         g.resize(m, 0.0);
                         dg.resize(m, 0.0);
                         len.resize(m, 0.0);
@@ -252,13 +349,9 @@ impl ForceStreams {
                         buckle_slots(s, &inputs, (table, kb, cb), lin, scratch, out);
                     }
                 }
-                accumulate(s, &pair, f);
-                accumulate(s, &pair_kw, kw);
                 (stream.pair, stream.pair_kw, stream.blocks) = (pair, pair_kw, blocks);
             }
         }
-        gather(f, f_out);
-        gather(kw, kw_out);
     }
 
     /// The blocks of every stream at the last
@@ -293,6 +386,9 @@ impl Out<'_> {
         }
     }
 }
+
+/// The buckling families' scratch: `g`, `g′` and lengths per slot.
+type Scratch<'a> = (&'a mut Vec<f32>, &'a mut Vec<f32>, &'a mut Vec<f32>);
 
 /// Values [`Out`] holds per slot.
 const OUTPUTS: usize = 11;
