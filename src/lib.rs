@@ -180,7 +180,6 @@ impl Plugin for ClothPlugin {
                         anchor::snap_anchors.run_if(any_with_component::<ClothAnchors>),
                         interaction::snap_grabs.run_if(interaction::grabs_active),
                         systems::finish_step,
-                        systems::report_divergence,
                         schedule::consume_step.run_if(schedule::paused),
                     )
                         .chain()

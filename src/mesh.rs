@@ -187,7 +187,9 @@ pub(crate) fn sync_cloth_meshes(
 /// are recomputed in the same frame.
 pub(crate) fn configure(app: &mut bevy::app::App) {
     use bevy::app::PostUpdate;
-    use bevy::ecs::schedule::{IntoScheduleConfigs, common_conditions::resource_exists};
+    use bevy::ecs::query::With;
+    use bevy::ecs::schedule::IntoScheduleConfigs;
+    use bevy::ecs::schedule::common_conditions::{any_match_filter, resource_exists};
     app.configure_sets(
         PostUpdate,
         (ClothMeshSystems::Attach, ClothMeshSystems::Sync)
@@ -198,7 +200,9 @@ pub(crate) fn configure(app: &mut bevy::app::App) {
     .add_systems(
         PostUpdate,
         (
-            attach_cloth_meshes.in_set(ClothMeshSystems::Attach),
+            attach_cloth_meshes
+                .run_if(any_match_filter::<(With<Cloth>, Without<Mesh3d>)>)
+                .in_set(ClothMeshSystems::Attach),
             sync_cloth_meshes.in_set(ClothMeshSystems::Sync),
         ),
     );

@@ -266,7 +266,10 @@ pub(crate) fn step_cloths(
 }
 
 /// [`ClothSystems::Writeback`](crate::schedule::ClothSystems::Writeback):
-/// clears the external forces and measures [`ClothStats`].
+/// clears the external forces, measures [`ClothStats`] and reports the
+/// step's divergences ([`report_divergence`]). One system rather than two:
+/// each system that runs costs a hand-off to a pool thread, some 15–20 µs
+/// on this project's machine.
 pub(crate) fn finish_step(
     mut cloths: Query<(
         &ClothParticles,
@@ -274,7 +277,10 @@ pub(crate) fn finish_step(
         &mut ClothForces,
         &mut ClothStats,
     )>,
+    scratch: Query<(Entity, &mut ClothScratch)>,
+    out: MessageWriter<ClothDiverged>,
 ) {
+    report_divergence(scratch, out);
     for (particles, connections, mut forces, mut stats) in &mut cloths {
         if forces.0.iter().any(|f| *f != Vec3::ZERO) {
             forces.0.fill(Vec3::ZERO);
@@ -288,9 +294,8 @@ pub(crate) fn finish_step(
     }
 }
 
-/// [`ClothSystems::Writeback`](crate::schedule::ClothSystems::Writeback):
-/// reports the divergences of this step, warning once per cloth.
-pub(crate) fn report_divergence(
+/// Reports the divergences of this step, warning once per cloth.
+fn report_divergence(
     mut cloths: Query<(Entity, &mut ClothScratch)>,
     mut out: MessageWriter<ClothDiverged>,
 ) {

@@ -381,7 +381,7 @@ pub(crate) fn configure(app: &mut App) {
                     .in_set(ClothSystems::Prepare),
                 seed_pass
                     .in_set(ClothSystems::Collide)
-                    .run_if(any_with_component::<ClothCollider>),
+                    .run_if(mesh_in_scene),
             ),
         );
 }
@@ -430,6 +430,15 @@ fn clear_colliders(mut scene: ResMut<ColliderScene>) {
 
 /// [`ClothSystems::Collide`]: the seed's
 /// triangle–triangle pass against mesh colliders, once per fixed step.
+/// Run condition of [`seed_pass`]: the scene has a mesh collider (only
+/// those take part), so that a scene of analytic shapes costs it nothing.
+fn mesh_in_scene(scene: Res<ColliderScene>) -> bool {
+    scene
+        .colliders
+        .iter()
+        .any(|c| matches!(c.shape, ColliderShape::Mesh(_)))
+}
+
 fn seed_pass(
     time: Res<Time<Fixed>>,
     scene: Res<ColliderScene>,
