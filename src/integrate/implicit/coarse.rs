@@ -334,11 +334,6 @@ impl Coarse {
         self.row = sums;
     }
 
-    /// Particles per band of aggregates (`side` whole grid rows).
-    pub(super) fn band_length(&self) -> usize {
-        self.fine_columns * self.side
-    }
-
     /// Bands of aggregates.
     pub(super) fn bands(&self) -> usize {
         self.count / self.columns
@@ -475,9 +470,9 @@ impl Coarse {
         }
     }
 
-    /// The particles of band `j`, of `n` in all.
+    /// The particles of band `j` (`side` whole grid rows), of `n` in all.
     pub(super) fn band_rows(&self, j: usize, n: usize) -> std::ops::Range<usize> {
-        let length = self.band_length();
+        let length = self.fine_columns * self.side;
         j * length..((j + 1) * length).min(n)
     }
 }

@@ -114,20 +114,14 @@ impl Halves {
     /// `aᵀb`, as the lower half's sum plus the upper half's.
     #[inline(always)]
     pub(super) fn dot(&self, a: &Soa, b: &Soa) -> f64 {
-        let [lower_a, upper_a] = a.0.each_ref().map(|c| c.split_at(self.at)).into_halves();
-        let [lower_b, upper_b] = b.0.each_ref().map(|c| c.split_at(self.at)).into_halves();
-        dot_parts(lower_a, lower_b) + dot_parts(upper_a, upper_b)
-    }
-}
-
-/// Splits three pairs into a pair of threes.
-trait IntoHalves<T> {
-    fn into_halves(self) -> [[T; 3]; 2];
-}
-
-impl<T: Copy> IntoHalves<T> for [(T, T); 3] {
-    fn into_halves(self) -> [[T; 3]; 2] {
-        [self.map(|p| p.0), self.map(|p| p.1)]
+        fn lower(v: &Soa, at: usize) -> [&[f32]; 3] {
+            v.0.each_ref().map(|c| &c[..at])
+        }
+        fn upper(v: &Soa, at: usize) -> [&[f32]; 3] {
+            v.0.each_ref().map(|c| &c[at..])
+        }
+        let at = self.at;
+        dot_parts(lower(a, at), lower(b, at)) + dot_parts(upper(a, at), upper(b, at))
     }
 }
 
@@ -286,12 +280,13 @@ unsafe fn body(s: &Shared, team: &Team, part: usize) -> (u32, f64) {
     let Halves { at, band, kernel } = s.halves;
     let own = if part == 0 { 0..at } else { at..s.n };
     let (mut delta, delta0, tol2, max_iterations) = s.start;
+    // The padded arrays themselves, for the product: `padded` starts
+    // `pad` values into them.
+    // SAFETY: `iterate` offset the arrays' starts by `pad`.
+    let d_at = s.padded.map(|p| unsafe { p.cast_const().sub(s.op.pad()) });
     let mut iterations = 0;
     while iterations < max_iterations && delta > tol2 * delta0 {
         // 1. q = A d over this half; every d is settled (barrier 3 below).
-        let padded = s.padded.map(|p| p.cast_const());
-        // SAFETY: `padded` starts `pad` values into the checked arrays.
-        let d_at = padded.map(|p| unsafe { p.sub(s.op.pad()) });
         // SAFETY: `check_padded` held; `q`'s half is this thread's.
         unsafe {
             match kernel {

@@ -268,51 +268,47 @@ impl ForceStreams {
         lin: Linearisation,
         scratch: Option<Scratch>,
     ) {
+        let slots = Slots {
+            caches,
+            families,
+            vectors,
+            lin,
+            scratch,
+        };
         #[cfg(target_arch = "x86_64")]
         if std::arch::is_x86_feature_detected!("avx512f") {
             // SAFETY: the CPU has AVX-512F, as checked on the line above.
-            return unsafe { Self::slot_values_avx512(caches, families, vectors, lin, scratch) };
+            return unsafe { Self::slot_values_avx512(slots) };
         } else if std::arch::is_x86_feature_detected!("avx2") {
             // SAFETY: the CPU has AVX2, as checked on the line above.
-            return unsafe { Self::slot_values_avx2(caches, families, vectors, lin, scratch) };
+            return unsafe { Self::slot_values_avx2(slots) };
         }
-        Self::slot_values_inner(caches, families, vectors, lin, scratch);
+        Self::slot_values_inner(slots);
     }
 
     /// [`Self::slot_values`] compiled for AVX-512.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx512f")]
-    fn slot_values_avx512(
-        caches: &mut [FamilyStreams],
-        families: &[(&[Link], Law)],
-        vectors: (&Soa, &Soa, &Soa),
-        lin: Linearisation,
-        scratch: Option<Scratch>,
-    ) {
-        Self::slot_values_inner(caches, families, vectors, lin, scratch);
+    fn slot_values_avx512(slots: Slots) {
+        Self::slot_values_inner(slots);
     }
 
     /// [`Self::slot_values`] compiled for AVX2.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
-    fn slot_values_avx2(
-        caches: &mut [FamilyStreams],
-        families: &[(&[Link], Law)],
-        vectors: (&Soa, &Soa, &Soa),
-        lin: Linearisation,
-        scratch: Option<Scratch>,
-    ) {
-        Self::slot_values_inner(caches, families, vectors, lin, scratch);
+    fn slot_values_avx2(slots: Slots) {
+        Self::slot_values_inner(slots);
     }
 
     #[inline(always)]
-    fn slot_values_inner(
-        caches: &mut [FamilyStreams],
-        families: &[(&[Link], Law)],
-        (xs, vs, ws): (&Soa, &Soa, &Soa),
-        lin: Linearisation,
-        mut scratch: Option<Scratch>,
-    ) {
+    fn slot_values_inner(slots: Slots) {
+        let Slots {
+            caches,
+            families,
+            vectors: (xs, vs, ws),
+            lin,
+            mut scratch,
+        } = slots;
         for (cache, &(_, law)) in caches.iter_mut().zip(families) {
             for stream in &mut cache.streams {
                 let m = stream.slots();
@@ -389,6 +385,16 @@ impl Out<'_> {
 
 /// The buckling families' scratch: `g`, `g′` and lengths per slot.
 type Scratch<'a> = (&'a mut Vec<f32>, &'a mut Vec<f32>, &'a mut Vec<f32>);
+
+/// The arguments of [`ForceStreams::slot_values`], in one bundle for its
+/// builds for each SIMD width.
+struct Slots<'a, 'b> {
+    caches: &'a mut [FamilyStreams],
+    families: &'a [(&'b [Link], Law<'b>)],
+    vectors: (&'a Soa, &'a Soa, &'a Soa),
+    lin: Linearisation,
+    scratch: Option<Scratch<'a>>,
+}
 
 /// Values [`Out`] holds per slot.
 const OUTPUTS: usize = 11;
