@@ -100,6 +100,7 @@ impl ClothAnchors {
 /// each anchored particle and gives it the velocity that reaches its target
 /// point at the end of the fixed step.
 pub(crate) fn follow_anchors(
+    _main: crate::schedule::MainThread,
     time: Res<Time<Fixed>>,
     targets: Query<WorldPose>,
     mut cloths: Query<(&mut ClothAnchors, &mut ClothParticles)>,
@@ -144,7 +145,10 @@ pub(crate) fn follow_anchors(
 /// [`ClothSystems::Writeback`](crate::schedule::ClothSystems::Writeback):
 /// places anchored particles exactly on their targets (they keep the
 /// anchor's velocity).
-pub(crate) fn snap_anchors(mut cloths: Query<(&ClothAnchors, &mut ClothParticles)>) {
+pub(crate) fn snap_anchors(
+    _main: crate::schedule::MainThread,
+    mut cloths: Query<(&ClothAnchors, &mut ClothParticles)>,
+) {
     for (anchors, mut particles) in &mut cloths {
         for anchor in &anchors.0 {
             if let (Some(goal), Some(x)) = (

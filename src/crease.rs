@@ -337,6 +337,7 @@ pub fn restore(connections: &mut ClothConnections, record: &mut CreaseRecord) {
     reason = "one query gathers what a crease edit needs"
 )]
 pub(crate) fn update_creases(
+    _main: crate::schedule::MainThread,
     mut commands: Commands,
     mut cloths: Query<
         (

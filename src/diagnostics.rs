@@ -72,6 +72,7 @@ pub(crate) fn configure(app: &mut App) {
 }
 
 fn record(
+    _main: crate::schedule::MainThread,
     mut diagnostics: Diagnostics,
     defaults: Res<ClothDefaults>,
     cloths: Query<(&ClothStats, Option<&ClothSettings>)>,

@@ -174,6 +174,7 @@ pub(crate) fn grabs_active(cloths: Query<&ClothGrabs>) -> bool {
 /// take the velocity that reaches their target by the step's end; spring
 /// grabs add their force.
 pub(crate) fn apply_grabs(
+    _main: crate::schedule::MainThread,
     time: Res<Time<Fixed>>,
     mut cloths: Query<(&mut ClothGrabs, &mut ClothParticles, &mut ClothForces)>,
 ) {
@@ -217,7 +218,10 @@ pub(crate) fn apply_grabs(
 
 /// [`ClothSystems::Writeback`](crate::ClothSystems::Writeback): kinematic
 /// grabs sit exactly on their targets.
-pub(crate) fn snap_grabs(mut cloths: Query<(&ClothGrabs, &mut ClothParticles)>) {
+pub(crate) fn snap_grabs(
+    _main: crate::schedule::MainThread,
+    mut cloths: Query<(&ClothGrabs, &mut ClothParticles)>,
+) {
     for (grabs, mut particles) in &mut cloths {
         for g in &grabs.grabs {
             let p = g.particle as usize;

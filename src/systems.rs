@@ -73,6 +73,7 @@ pub(crate) struct StepQuery {
 /// A cloth whose settings or arrays are invalid is skipped, with one warning
 /// until it is fixed.
 pub(crate) fn step_cloths(
+    _main: crate::schedule::MainThread,
     time: Res<Time<Fixed>>,
     defaults: Res<ClothDefaults>,
     scene: Res<ColliderScene>,
@@ -271,6 +272,7 @@ pub(crate) fn step_cloths(
 /// each system that runs costs a hand-off to a pool thread, some 15–20 µs
 /// on this project's machine.
 pub(crate) fn finish_step(
+    _main: crate::schedule::MainThread,
     mut cloths: Query<(
         &ClothParticles,
         &ClothConnections,

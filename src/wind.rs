@@ -132,6 +132,7 @@ pub(crate) fn wind_blows(wind: Option<Res<ClothWind>>) -> bool {
 
 /// [`ClothSystems::Forces`](crate::ClothSystems::Forces): wind on every cloth.
 pub(crate) fn apply_wind(
+    _main: crate::schedule::MainThread,
     time: Res<Time<Fixed>>,
     wind: Res<ClothWind>,
     mut cloths: Query<(&Cloth, &ClothParticles, &mut ClothForces)>,

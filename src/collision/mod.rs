@@ -389,6 +389,7 @@ pub(crate) fn configure(app: &mut App) {
 /// [`ClothSystems::Prepare`]: every valid
 /// collider's poses over the coming step; its end pose is its next start.
 fn gather_colliders(
+    _main: crate::schedule::MainThread,
     mut colliders: Query<(&ClothCollider, WorldPose, &mut ColliderMotion)>,
     mut scene: ResMut<ColliderScene>,
     mut stats: ResMut<ClothCollisionStats>,
@@ -422,7 +423,7 @@ fn gather_colliders(
 }
 
 /// Empties the scene once the last collider is gone.
-fn clear_colliders(mut scene: ResMut<ColliderScene>) {
+fn clear_colliders(_main: crate::schedule::MainThread, mut scene: ResMut<ColliderScene>) {
     if !scene.colliders.is_empty() {
         scene.colliders.clear();
     }
@@ -440,6 +441,7 @@ fn mesh_in_scene(scene: Res<ColliderScene>) -> bool {
 }
 
 fn seed_pass(
+    _main: crate::schedule::MainThread,
     time: Res<Time<Fixed>>,
     scene: Res<ColliderScene>,
     mut cloths: Query<(&Cloth, &mut ClothParticles, Option<&ClothCollision>)>,
