@@ -34,6 +34,7 @@ use bevy::prelude::{Entity, Message, Reflect};
 use crate::connections::{ClothConnections, max_strain};
 use crate::particles::ClothParticles;
 use crate::settings::Integrator;
+use crate::team::{self, SPLIT_PARTICLES};
 
 /// What the guard does when a step blows up.
 #[derive(Clone, Copy, Debug, PartialEq, Reflect)]
@@ -110,23 +111,57 @@ pub fn check(
     connections: &ClothConnections,
     guard: &GuardSettings,
 ) -> Option<Divergence> {
-    if !particles.is_finite() {
-        return Some(Divergence::NonFinite);
+    check_measured(particles, connections, guard, false).0
+}
+
+/// [`check`], and the largest Type 1 strain (as [`max_strain`]) if it got
+/// as far as measuring it: the state is finite and slow enough. With
+/// `helper`, a cloth of [`SPLIT_PARTICLES`] or more has its shear links
+/// measured on the helper thread meanwhile, to the same result (the
+/// largest of two largest).
+pub(crate) fn check_measured(
+    particles: &ClothParticles,
+    connections: &ClothConnections,
+    guard: &GuardSettings,
+    helper: bool,
+) -> (Option<Divergence>, Option<f32>) {
+    let x = &particles.positions;
+    let here = || {
+        let finite = particles.is_finite();
+        let fastest = particles
+            .velocities
+            .iter()
+            .map(|v| v.length_squared())
+            .fold(0.0f32, f32::max)
+            .sqrt();
+        (finite, fastest)
+    };
+    let ((finite, fastest), strain) = if helper && particles.len() >= SPLIT_PARTICLES {
+        let ((state, structural), shear) = team::both(
+            || (here(), max_strain(&connections.structural, x)),
+            || max_strain(&connections.shear, x),
+        );
+        let strain = if structural.is_nan() || shear.is_nan() {
+            f32::NAN
+        } else {
+            structural.max(shear)
+        };
+        (state, Some(strain))
+    } else {
+        (here(), None)
+    };
+    if !finite {
+        return (Some(Divergence::NonFinite), None);
     }
-    let fastest = particles
-        .velocities
-        .iter()
-        .map(|v| v.length_squared())
-        .fold(0.0f32, f32::max)
-        .sqrt();
     if fastest > guard.max_speed {
-        return Some(Divergence::Speed(fastest));
+        return (Some(Divergence::Speed(fastest)), None);
     }
-    let strain = max_strain(connections.type1(), &particles.positions);
+    let strain = strain.unwrap_or_else(|| max_strain(connections.type1(), x));
     if !strain.is_finite() {
-        return Some(Divergence::NonFinite);
+        return (Some(Divergence::NonFinite), None);
     }
-    (strain > guard.max_strain).then_some(Divergence::Strain(strain))
+    let tripped = (strain > guard.max_strain).then_some(Divergence::Strain(strain));
+    (tripped, Some(strain))
 }
 
 /// Whether a trip from [`check`] is a divergence: always for non-finite

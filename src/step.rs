@@ -46,6 +46,8 @@ pub struct ClothScratch {
     pub(crate) warned_invalid: bool,
     /// The divergence guard's state.
     pub(crate) guard: crate::guard::GuardState,
+    /// What the step measured that its writeback reuses.
+    pub(crate) measured: crate::systems::Measured,
 }
 
 /// What the last fixed step of a cloth looked like.
@@ -77,7 +79,15 @@ pub struct ClothStats {
 impl ClothStats {
     /// Measures `particles` against `connections`.
     pub fn measure(&mut self, particles: &ClothParticles, connections: &ClothConnections) {
-        self.max_strain = max_strain(connections.type1(), &particles.positions);
+        self.measure_with(
+            particles,
+            max_strain(connections.type1(), &particles.positions),
+        );
+    }
+
+    /// [`ClothStats::measure`] given the largest strain, measured already.
+    pub(crate) fn measure_with(&mut self, particles: &ClothParticles, max_strain: f32) {
+        self.max_strain = max_strain;
         self.kinetic_energy = particles.kinetic_energy();
         self.finite = particles.is_finite();
     }

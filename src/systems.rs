@@ -1,9 +1,11 @@
 //! The thin ECS layer of the step: gather a cloth's components, call
 //! [`step_cloth`], write back.
 
+use bevy::ecs::change_detection::Tick;
+use bevy::ecs::system::SystemChangeTick;
 use bevy::log::warn;
 use bevy::math::Vec3;
-use bevy::prelude::{Entity, MessageWriter, Query, Res, ResMut, Time};
+use bevy::prelude::{DetectChanges, Entity, MessageWriter, Query, Ref, Res, ResMut, Time};
 use bevy::time::Fixed;
 
 use crate::cloth::ClothError;
@@ -20,7 +22,7 @@ use crate::collision::{
     ClothCollision, ClothCollisionStats, ClothSelfCollision, ColliderScene, SelfCollisionScratch,
     bounds, resolve_substep,
 };
-use crate::guard::{ClothDiverged, Divergence, Fallback, check, grew};
+use crate::guard::{ClothDiverged, Divergence, Fallback, check_measured, grew};
 use crate::settings::MAX_SUBSTEPS;
 use crate::step::{ClothForces, ClothScratch, ClothStats, Substep, step_cloth_with};
 
@@ -30,6 +32,11 @@ pub fn check_cloth(
     particles: &ClothParticles,
     connections: &ClothConnections,
 ) -> Result<(), ClothError> {
+    check_indices(particles, connections.max_index())
+}
+
+/// [`check_cloth`] given the connections' largest index.
+fn check_indices(particles: &ClothParticles, max_index: Option<u32>) -> Result<(), ClothError> {
     let n = particles.len();
     if particles.velocities.len() != n
         || particles.inverse_masses.len() != n
@@ -37,12 +44,46 @@ pub fn check_cloth(
     {
         return Err(ClothError::InconsistentParticles);
     }
-    match connections.max_index() {
+    match max_index {
         Some(index) if index as usize >= n => Err(ClothError::ParticleOutOfRange {
             index,
             count: n as u32,
         }),
         _ => Ok(()),
+    }
+}
+
+/// What the step measured of a cloth that the writeback reuses while the
+/// cloth has not changed since: each scan takes some 20–30 µs on a 64×64
+/// cloth, and the writeback would repeat them every fixed step.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct Measured {
+    /// The connections' largest particle index, scanned at this tick.
+    links: Option<(Tick, Option<u32>)>,
+    /// The Type 1 strain of the particles as the step left them at this
+    /// tick (measured by the divergence guard).
+    strain: Option<(Tick, f32)>,
+}
+
+impl Measured {
+    /// The connections' largest index: the last scan's if they have not
+    /// changed since it, else a new scan at `now`.
+    fn max_index(&mut self, connections: &Ref<ClothConnections>, now: Tick) -> Option<u32> {
+        match self.links {
+            Some((at, max)) if !connections.last_changed().is_newer_than(at, now) => max,
+            _ => {
+                let max = connections.max_index();
+                self.links = Some((now, max));
+                max
+            }
+        }
+    }
+
+    /// The step's strain of `particles`, if they have not changed since.
+    fn strain(&self, particles: &Ref<ClothParticles>, now: Tick) -> Option<f32> {
+        self.strain
+            .filter(|&(at, _)| !particles.last_changed().is_newer_than(at, now))
+            .map(|(_, strain)| strain)
     }
 }
 
@@ -53,7 +94,7 @@ pub(crate) struct StepQuery {
     entity: Entity,
     cloth: &'static Cloth,
     particles: &'static mut ClothParticles,
-    connections: &'static ClothConnections,
+    connections: Ref<'static, ClothConnections>,
     settings: Option<&'static ClothSettings>,
     forces: &'static ClothForces,
     scratch: &'static mut ClothScratch,
@@ -79,14 +120,19 @@ pub(crate) fn step_cloths(
     scene: Res<ColliderScene>,
     mut stats: ResMut<ClothCollisionStats>,
     mut cloths: Query<StepQuery>,
+    ticks: SystemChangeTick,
 ) {
+    let now = ticks.this_run();
     let dt = time.timestep().as_secs_f32();
     let totals: [AtomicU64; 4] = Default::default();
     cloths.par_iter_mut().for_each(|mut item| {
         let settings = item.settings.unwrap_or(&defaults);
+        let connections: &ClothConnections = &item.connections;
+        let max_index = item.scratch.measured.max_index(&item.connections, now);
+        item.scratch.measured.strain = None;
         let checked = settings
             .validate()
-            .and_then(|()| check_cloth(&item.particles, item.connections));
+            .and_then(|()| check_indices(&item.particles, max_index));
         if let Err(error) = checked {
             if !item.scratch.warned_invalid {
                 warn!("cloth {} is not simulated: {error}", item.entity);
@@ -154,7 +200,7 @@ pub(crate) fn step_cloths(
         for attempt in 0..=guard.retries {
             let used = step_cloth_with(
                 &mut item.particles,
-                item.connections,
+                connections,
                 &effective,
                 &item.forces.0,
                 &mut scratch.buffers,
@@ -162,12 +208,14 @@ pub(crate) fn step_cloths(
                 hook.as_mut(),
             );
             effective.substeps = used;
-            let Some(reason) = guard
-                .enabled
-                .then(|| check(&item.particles, item.connections, &guard))
-                .flatten()
-                .filter(|&r| grew(r, &scratch.guard, item.connections, &guard))
+            let (reason, strain) = if guard.enabled {
+                check_measured(&item.particles, connections, &guard, helper)
+            } else {
+                (None, None)
+            };
+            let Some(reason) = reason.filter(|&r| grew(r, &scratch.guard, connections, &guard))
             else {
+                scratch.measured.strain = strain.map(|s| (now, s));
                 if let Some(reason) = tripped {
                     scratch.guard.pending =
                         Some((reason, effective.substeps, effective.integrator, true));
@@ -231,7 +279,7 @@ pub(crate) fn step_cloths(
                     // The substeps before any boost: configured, or adaptive.
                     let base = crate::adaptive::substeps_for(
                         settings,
-                        item.connections,
+                        connections,
                         &item.particles,
                         dt,
                         &mut scratch.buffers.mode_sums,
@@ -266,62 +314,71 @@ pub(crate) fn step_cloths(
     }
 }
 
+/// What the writeback reads and writes of one cloth.
+type WritebackQuery = (
+    Entity,
+    Ref<'static, ClothParticles>,
+    Ref<'static, ClothConnections>,
+    &'static mut ClothForces,
+    &'static mut ClothStats,
+    &'static mut ClothScratch,
+);
+
 /// [`ClothSystems::Writeback`](crate::schedule::ClothSystems::Writeback):
-/// clears the external forces, measures [`ClothStats`] and reports the
-/// step's divergences ([`report_divergence`]). One system rather than two:
-/// each system that runs costs a hand-off to a pool thread, some 15–20 µs
-/// on this project's machine.
+/// clears the external forces, measures [`ClothStats`] (with the strain the
+/// step's guard measured, if the particles have not changed since:
+/// [`Measured`]) and reports the step's divergences
+/// ([`report_divergence`]), in one system.
 pub(crate) fn finish_step(
     _main: crate::schedule::MainThread,
-    mut cloths: Query<(
-        &ClothParticles,
-        &ClothConnections,
-        &mut ClothForces,
-        &mut ClothStats,
-    )>,
-    scratch: Query<(Entity, &mut ClothScratch)>,
-    out: MessageWriter<ClothDiverged>,
+    mut cloths: Query<WritebackQuery>,
+    mut out: MessageWriter<ClothDiverged>,
+    ticks: SystemChangeTick,
 ) {
-    report_divergence(scratch, out);
-    for (particles, connections, mut forces, mut stats) in &mut cloths {
+    let now = ticks.this_run();
+    for (entity, particles, connections, mut forces, mut stats, mut scratch) in &mut cloths {
+        report_divergence(entity, &mut scratch, &mut out);
         if forces.0.iter().any(|f| *f != Vec3::ZERO) {
             forces.0.fill(Vec3::ZERO);
         }
         stats.steps += 1;
-        if check_cloth(particles, connections).is_ok() {
-            stats.measure(particles, connections);
+        let measured = &mut scratch.measured;
+        if check_indices(&particles, measured.max_index(&connections, now)).is_ok() {
+            match measured.strain(&particles, now) {
+                Some(strain) => stats.measure_with(&particles, strain),
+                None => stats.measure(&particles, &connections),
+            }
         } else {
             stats.finite = particles.is_finite();
         }
     }
 }
 
-/// Reports the divergences of this step, warning once per cloth.
+/// Reports the divergence of this step, if any, warning once per cloth.
 fn report_divergence(
-    mut cloths: Query<(Entity, &mut ClothScratch)>,
-    mut out: MessageWriter<ClothDiverged>,
+    entity: Entity,
+    scratch: &mut ClothScratch,
+    out: &mut MessageWriter<ClothDiverged>,
 ) {
-    for (entity, mut scratch) in &mut cloths {
-        let Some((reason, substeps, integrator, recovered)) = scratch.guard.pending.take() else {
-            continue;
-        };
-        if !scratch.guard.warned {
-            warn!(
-                "cloth {entity} diverged ({reason:?}); now {substeps} substeps of {integrator:?}{}",
-                if recovered {
-                    ""
-                } else {
-                    ", still unstable: kept at its last good state"
-                }
-            );
-            scratch.guard.warned = true;
-        }
-        out.write(ClothDiverged {
-            cloth: entity,
-            reason,
-            substeps,
-            integrator,
-            recovered,
-        });
+    let Some((reason, substeps, integrator, recovered)) = scratch.guard.pending.take() else {
+        return;
+    };
+    if !scratch.guard.warned {
+        warn!(
+            "cloth {entity} diverged ({reason:?}); now {substeps} substeps of {integrator:?}{}",
+            if recovered {
+                ""
+            } else {
+                ", still unstable: kept at its last good state"
+            }
+        );
+        scratch.guard.warned = true;
     }
+    out.write(ClothDiverged {
+        cloth: entity,
+        reason,
+        substeps,
+        integrator,
+        recovered,
+    });
 }

@@ -256,3 +256,62 @@ fn live_figures_are_bevy_diagnostics() {
     assert_eq!(value(&SUBSTEPS), 40.0);
     assert!(value(&MAX_STRAIN) > 0.0 && value(&KINETIC_ENERGY) > 0.0);
 }
+
+/// Moves particle 0 of every cloth 0.5 m along x (after the integration,
+/// before the writeback measures the statistics).
+fn shove(mut cloths: Query<&mut ClothParticles>, mut shoves: Local<u32>) {
+    *shoves += 1;
+    if *shoves == 3 {
+        for mut p in &mut cloths {
+            p.positions[0].x += 0.5;
+        }
+    }
+}
+
+#[test]
+fn statistics_measure_the_state_whatever_changed_it_after_the_step() {
+    // 48×48 with backward Euler: the divergence guard measures the strain
+    // in two halves (one on the helper thread), and the writeback reuses
+    // its figure unless the particles changed since.
+    let mut app = app();
+    app.insert_resource(ClothDefaults(
+        ClothSettings::default().with_integrator(Integrator::BackwardEuler, 1),
+    ))
+    .add_systems(FixedUpdate, shove.in_set(ClothSystems::Collide));
+    let cloth = app.world_mut().spawn(hanging(48)).id();
+    for step in 1..=5 {
+        app.update();
+        let p = particles(&app, cloth);
+        let links = app.world().get::<ClothConnections>(cloth).unwrap();
+        let fresh = bevy_cloth::connections::max_strain(links.type1(), &p.positions);
+        let stats = app.world().get::<ClothStats>(cloth).unwrap();
+        assert_eq!(stats.max_strain.to_bits(), fresh.to_bits(), "step {step}");
+        if step == 3 {
+            // The shoved particle's links are stretched far past the rest.
+            assert!(stats.max_strain > 10.0, "{stats:?}");
+        }
+    }
+}
+
+#[test]
+fn links_edited_between_steps_are_checked_again() {
+    let mut app = app();
+    let cloth = app.world_mut().spawn(hanging(5)).id();
+    for _ in 0..3 {
+        app.update();
+    }
+    app.world_mut()
+        .get_mut::<ClothConnections>(cloth)
+        .unwrap()
+        .bend[0]
+        .b = 999;
+    let before = particles(&app, cloth).positions.clone();
+    for _ in 0..3 {
+        app.update();
+    }
+    assert_eq!(
+        particles(&app, cloth).positions,
+        before,
+        "a cloth with a bad link moved"
+    );
+}
