@@ -41,6 +41,8 @@ const NONE: u32 = u32::MAX;
 pub(super) struct Coarse {
     /// Aggregate of each particle, [`NONE`] for pinned ones.
     aggregate: Vec<u32>,
+    /// Column of aggregates of each grid column.
+    column_aggregate: Vec<u32>,
     /// Particles per grid row.
     fine_columns: usize,
     /// Particles per aggregate side.
@@ -97,16 +99,21 @@ impl Coarse {
         self.fine_columns = columns;
         self.side = side;
         self.unusable = false;
+        // By rows, with the aggregate column of each grid column looked up:
+        // a division per particle took ~20 µs a step on a 64×64 cloth.
+        self.column_aggregate.clear();
+        self.column_aggregate
+            .extend((0..columns).map(|i| (i / side) as u32));
         self.aggregate.clear();
-        self.aggregate
-            .extend(inverse_masses.iter().enumerate().map(|(p, &w)| {
-                let (i, j) = (p % columns, p / columns);
-                if w == 0.0 {
-                    NONE
-                } else {
-                    ((j / side) * self.columns + i / side) as u32
-                }
-            }));
+        for (j, row) in inverse_masses.chunks_exact(columns).enumerate() {
+            let first = ((j / side) * self.columns) as u32;
+            let aggregates = row.iter().zip(&self.column_aggregate);
+            self.aggregate.extend(aggregates.map(
+                |(&w, &i)| {
+                    if w == 0.0 { NONE } else { first + i }
+                },
+            ));
+        }
         // The aggregates' masses, summed in `rc` (no allocation per step).
         let masses = &mut self.rc;
         masses.clear();

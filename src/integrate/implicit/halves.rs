@@ -30,6 +30,14 @@ pub(super) const MIN_PARTICLES: usize = crate::team::SPLIT_PARTICLES;
 /// a change of conditions (another thread taking the helper's core) is seen.
 const EXPLORE: u32 = 30;
 
+/// One solve in this many explores when the faster way is faster by
+/// [`WIDE`] or more: a 64×64 cloth's solve alone takes ~1 ms longer, so
+/// exploring one frame in 30 cost ~35 µs a frame on average.
+const EXPLORE_WIDE: u32 = 240;
+
+/// The ratio of the two ways' costs from which exploring is rarer.
+const WIDE: f32 = 1.25;
+
 /// Chooses, per cloth, between the solve on one thread and the solve shared
 /// with the helper by their measured time per iteration (µs, a moving
 /// average). Sharing is usually the faster; it is not when the two threads
@@ -49,14 +57,18 @@ pub(super) struct Choice {
 impl Choice {
     /// Whether the next solve should share its iterations: yes until
     /// sharing has been timed, then no until solving alone has, then the
-    /// faster, except one solve in [`EXPLORE`].
+    /// faster, except one solve in [`EXPLORE`] ([`EXPLORE_WIDE`] if the
+    /// faster is faster by [`WIDE`]).
     pub(super) fn share(&mut self) -> bool {
         self.solves = self.solves.wrapping_add(1);
-        let explore = self.solves.is_multiple_of(EXPLORE);
         match self.cost {
             [_, None] => true,
             [None, _] => false,
-            [Some(alone), Some(shared)] => (shared < alone) != explore,
+            [Some(alone), Some(shared)] => {
+                let wide = alone.max(shared) >= WIDE * alone.min(shared);
+                let period = if wide { EXPLORE_WIDE } else { EXPLORE };
+                (shared < alone) != self.solves.is_multiple_of(period)
+            }
         }
     }
 
