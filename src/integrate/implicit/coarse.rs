@@ -29,9 +29,29 @@ use bevy::math::{Mat3A, Vec3};
 use super::operator::{Soa, rank_block, sym_matrix, sym_of};
 use crate::model::jacobian::Block;
 use crate::model::streams::StreamBlocks;
+use factor::{Banded, Dense, MAX_DENSE};
+
+mod factor;
 
 /// Aggregates per side of the coarse grid at most.
 pub const COARSE_SIDE: usize = 8;
+
+/// The parts of the coarse unknowns ([`factor`]).
+const LOWER: usize = 0;
+const UPPER: usize = 1;
+const SEPARATOR: usize = 2;
+
+/// Reverses the order of a vector's aggregates (runs of three), keeping
+/// each one's three components in order.
+fn reverse_aggregates(v: &mut [f64]) {
+    let n = v.len() / 3;
+    for i in 0..n / 2 {
+        let j = n - 1 - i;
+        for k in 0..3 {
+            v.swap(3 * i + k, 3 * j + k);
+        }
+    }
+}
 
 /// Marks a pinned particle, which belongs to no aggregate.
 const NONE: u32 = u32::MAX;
@@ -56,17 +76,21 @@ pub(super) struct Coarse {
     /// Sums of the blocks `C` from each aggregate to its neighbours at
     /// coarse offsets (1,0), (−1,1), (0,1), (1,1); `A_c[I][J] = −C`.
     off: Vec<[Mat3A; 4]>,
-    /// Half-bandwidth of `A_c` in scalar rows.
-    bandwidth: usize,
-    /// The Cholesky factor `L`, row by row: `L[i][j]` at
-    /// `i·(bandwidth + 1) + j + bandwidth − i` for `i − bandwidth ≤ j ≤ i`.
-    band: Vec<f64>,
-    /// `1 / L[i][i]` (1/√kg: `A_c = L Lᵀ` is in kg).
-    inverse_diagonal: Vec<f64>,
-    /// `L` below the diagonal column by column (√kg): `L[i + 1 + k][i]` at
-    /// `i·bandwidth + k`, so that the forward solve reads it in order.
-    columns_below: Vec<f64>,
-    /// Coarse right-hand side, then solution.
+    /// The factor `L_L` of the bands below the separator band
+    /// ([`factor`]'s layout).
+    lower: Banded,
+    /// The factor `L_U` of the bands above it, in reverse.
+    upper: Banded,
+    /// The separator's Schur complement, factored (`L_S`).
+    separator: Dense,
+    /// `X_L` and `X_U` (√kg): of each side, the rows of its band next to
+    /// the separator by the separator's columns, row-major.
+    cross: [Vec<f64>; 2],
+    /// A column of `X`, while it is formed.
+    column: Vec<f64>,
+    /// Coarse right-hand side, then solution, and after them the
+    /// separator's share of the lower bands' forward substitution
+    /// (`X_Lᵀ z_L`).
     rc: Vec<f64>,
     /// A fine row's worth of column sums (restriction, N·s) or of
     /// corrections (prolongation, m/s).
@@ -234,85 +258,134 @@ impl Coarse {
         self.factor()
     }
 
-    /// Writes `A_c` into the band and factors it in place; `false` on a
-    /// pivot that is not positive.
+    /// Where the unknowns of aggregate `a` go: the bands below the
+    /// separator band in order, the separator band, the bands above it in
+    /// reverse; as (part, index of the aggregate within it).
+    fn place(&self, a: usize) -> (usize, usize) {
+        let (band, separator) = (a / self.columns, self.separator_band());
+        match band.cmp(&separator) {
+            std::cmp::Ordering::Less => (LOWER, a),
+            std::cmp::Ordering::Equal => (SEPARATOR, a - separator * self.columns),
+            std::cmp::Ordering::Greater => (UPPER, self.count - 1 - a),
+        }
+    }
+
+    /// The band of aggregates that separates the lower bands from the
+    /// upper (the first band of the upper half of a split solve).
+    pub(super) fn separator_band(&self) -> usize {
+        self.bands() / 2
+    }
+
+    /// Unknowns below the separator, in it, and in all (`3 × count`).
+    pub(super) fn sizes(&self) -> (usize, usize, usize) {
+        let band = 3 * self.columns;
+        (band * self.separator_band(), band, 3 * self.count)
+    }
+
+    /// Writes `A_c` into the factors' matrices ([`factor`]) and factors
+    /// them; `false` on a pivot that is not positive.
     #[inline(always)]
     fn factor(&mut self) -> bool {
         let columns = self.columns;
-        let bw = 3 * (columns + 1) + 2;
-        let width = bw + 1;
-        let size = 3 * self.count;
-        self.bandwidth = bw;
-        self.band.clear();
-        self.band.resize(size * width, 0.0);
-        let band = &mut self.band;
-        // A[r][c] for r ≥ c.
-        let mut put = |r: usize, c: usize, value: f32| band[r * width + c + bw - r] = value as f64;
+        let (below, band, size) = self.sizes();
+        let above = size - below - band;
+        self.lower.reset(below, 3 * (columns + 1) + 2);
+        self.upper.reset(above, 3 * (columns + 1) + 2);
+        self.separator.reset(band);
+        // `A_·S`, of the rows of each side's band next to the separator.
+        for cross in &mut self.cross {
+            cross.clear();
+            cross.resize(band * band, 0.0);
+        }
+        // A_c[a][b] = v(p, q) for the blocks of aggregates a ≥ b.
         let deltas = [1, columns - 1, columns, columns + 1];
-        for (i, (d, off)) in self.diag.iter().zip(&self.off).enumerate() {
+        for a in 0..self.count {
+            let d = self.diag[a];
+            let (part, i) = self.place(a);
             for p in 0..3 {
                 for q in 0..=p {
-                    put(3 * i + p, 3 * i + q, d.col(q)[p]);
+                    let (r, c, value) = (3 * i + p, 3 * i + q, d.col(q)[p] as f64);
+                    match part {
+                        LOWER => self.lower.put(r, c, value),
+                        UPPER => self.upper.put(r, c, value),
+                        _ => self.separator.add(r, c, value),
+                    }
                 }
             }
-            for (c, &delta) in off.iter().zip(&deltas) {
-                let j = i + delta;
-                if j >= self.count || *c == Mat3A::ZERO {
+            for (c, &delta) in self.off[a].iter().zip(&deltas) {
+                let b = a + delta;
+                if b >= self.count || *c == Mat3A::ZERO {
                     continue;
                 }
-                // A_c[j][i] = −Cᵀ.
+                // A_c[b][a] = −Cᵀ.
+                let v = |p: usize, q: usize| -c.col(p)[q] as f64;
+                let (low, high) = (self.place(a), self.place(b));
                 for p in 0..3 {
                     for q in 0..3 {
-                        put(3 * j + p, 3 * i + q, -c.col(p)[q]);
+                        match (low, high) {
+                            ((LOWER, i), (LOWER, j)) => {
+                                self.lower.put(3 * j + p, 3 * i + q, v(p, q));
+                            }
+                            // Reversed: b comes before a.
+                            ((UPPER, i), (UPPER, j)) => {
+                                self.upper.put(3 * i + q, 3 * j + p, v(p, q));
+                            }
+                            ((SEPARATOR, i), (SEPARATOR, j)) => {
+                                self.separator.add(3 * j + p, 3 * i + q, v(p, q));
+                            }
+                            ((LOWER, i), (SEPARATOR, j)) => {
+                                let row = 3 * i + q - (below - band);
+                                self.cross[0][row * band + 3 * j + p] = v(p, q);
+                            }
+                            ((SEPARATOR, i), (UPPER, j)) => {
+                                let row = 3 * j + p - (above - band);
+                                self.cross[1][row * band + 3 * i + q] = v(p, q);
+                            }
+                            _ => return false, // the grid couples only neighbours
+                        }
                     }
                 }
             }
         }
-        // Right-looking: column k of L, then its outer product off the
-        // rows below, each row's update one contiguous run (no chain of
-        // dependent sums, so it runs as SIMD).
-        let column = &mut self.rc;
-        column.clear();
-        column.resize(bw, 0.0);
-        for k in 0..size {
-            let pivot = band[k * width + bw];
-            if pivot.is_nan() || pivot <= 0.0 {
-                return false;
+        if !(self.lower.factor() && self.upper.factor()) {
+            return false;
+        }
+        // X = L⁻¹ A_·S a column at a time: A_·S is 0 above the band next
+        // to the separator, and so is X. Then the Schur complement.
+        for (factor, cross) in [&self.lower, &self.upper].into_iter().zip(&mut self.cross) {
+            let n = factor.size();
+            if n == 0 {
+                cross.fill(0.0);
+                continue;
             }
-            let pivot = pivot.sqrt();
-            band[k * width + bw] = pivot;
-            let below = (size - 1 - k).min(bw);
-            for (m, c) in column[..below].iter_mut().enumerate() {
-                let i = k + 1 + m;
-                let at = i * width + k + bw - i;
-                band[at] /= pivot;
-                *c = band[at];
+            for k in 0..band {
+                self.column.clear();
+                self.column.resize(n, 0.0);
+                for m in 0..band {
+                    self.column[n - band + m] = cross[m * band + k];
+                }
+                factor.forward(&mut self.column, n - band);
+                for m in 0..band {
+                    cross[m * band + k] = self.column[n - band + m];
+                }
             }
-            for m in 0..below {
-                let i = k + 1 + m;
-                let lik = column[m];
-                // A[i][k+1..=i] −= L[i][k]·L[k+1..=i][k].
-                let row = &mut band[i * width + k + 1 + bw - i..i * width + bw + 1];
-                for (a, &l) in row.iter_mut().zip(&column[..=m]) {
-                    *a -= lik * l;
+            for r in 0..band {
+                for c in 0..=r {
+                    let mut s = 0.0;
+                    for m in 0..band {
+                        s += cross[m * band + r] * cross[m * band + c];
+                    }
+                    self.separator.add(r, c, -s);
                 }
             }
         }
-        self.inverse_diagonal.clear();
-        self.inverse_diagonal
-            .extend((0..size).map(|i| 1.0 / band[i * width + bw]));
-        self.columns_below.clear();
-        self.columns_below.resize(size * bw, 0.0);
-        for i in 0..size {
-            for (k, r) in (i + 1..size.min(i + 1 + bw)).enumerate() {
-                self.columns_below[i * bw + k] = band[r * width + i + bw - r];
-            }
+        if !self.separator.factor() {
+            return false;
         }
         self.rc.clear();
-        self.rc.resize(size, 0.0);
+        self.rc.resize(size + band, 0.0);
         true
     }
-
     /// The aggregate of free particle `p` (for tests).
     #[cfg(test)]
     pub(super) fn aggregate_of(&self, p: usize) -> usize {
@@ -327,12 +400,13 @@ impl Coarse {
         let mut sums = std::mem::take(&mut self.row);
         let n = free.len();
         let (r, mut y) = (r.0.each_ref(), y.0.each_mut());
-        for (j, rc) in rc.chunks_mut(3 * self.columns).enumerate() {
+        let size = 3 * self.count;
+        for (j, rc) in rc[..size].chunks_mut(3 * self.columns).enumerate() {
             let r = r.map(|c| &c[self.band_rows(j, n)]);
             self.restrict_band(r, rc, &mut sums);
         }
         self.solve(&mut rc);
-        for (j, rc) in rc.chunks(3 * self.columns).enumerate() {
+        for (j, rc) in rc[..size].chunks(3 * self.columns).enumerate() {
             let rows = self.band_rows(j, n);
             let y = y.each_mut().map(|c| &mut c[rows.clone()]);
             self.prolong_band(rc, y, &free[rows.clone()], &mut sums);
@@ -380,77 +454,105 @@ impl Coarse {
         }
     }
 
-    /// `rc = A_c⁻¹ rc` (N·s in, m/s out) by the Cholesky factor.
-    ///
-    /// Both substitutions go an aggregate (three rows) at a time: its
-    /// three unknowns in scalars, then their columns off the rows beyond
-    /// as vector loops. Row by row, each row's scalar load followed the
-    /// vector store that had just updated it, a store-forwarding stall
-    /// per row: 3.3 µs a solve on a 64×64 cloth, one of the solver's few
-    /// passes that cannot be split between threads.
+    /// `rc = A_c⁻¹ rc` (N·s in, m/s out; `rc` as [`Coarse::split`]
+    /// takes it), the passes of both threads of a split solve in turn.
     #[inline(always)]
     pub(super) fn solve(&self, rc: &mut [f64]) {
-        let (bw, band, inverse) = (self.bandwidth, &self.band, &self.inverse_diagonal);
-        let below = &self.columns_below;
-        let size = rc.len();
-        debug_assert!(size.is_multiple_of(3) && bw >= 2);
-        // L z = Rᵀ r. `below[i·bw + k]` is L[i + 1 + k][i].
-        for i in (0..size).step_by(3) {
-            let z0 = rc[i] * inverse[i];
-            let z1 = (rc[i + 1] - below[i * bw] * z0) * inverse[i + 1];
-            let z2 =
-                (rc[i + 2] - below[i * bw + 1] * z0 - below[(i + 1) * bw] * z1) * inverse[i + 2];
-            (rc[i], rc[i + 1], rc[i + 2]) = (z0, z1, z2);
-            // Columns i, i + 1, i + 2 of L off rows i + 3 on: all three
-            // reach row i + bw, the last two one and two rows further.
-            let rows = (size - (i + 3)).min(bw - 2);
-            let c0 = &below[i * bw + 2..i * bw + 2 + rows];
-            let c1 = &below[(i + 1) * bw + 1..(i + 1) * bw + 1 + rows];
-            let c2 = &below[(i + 2) * bw..(i + 2) * bw + rows];
-            let target = &mut rc[i + 3..i + 3 + rows];
-            for (r, ((&l0, &l1), &l2)) in target.iter_mut().zip(c0.iter().zip(c1).zip(c2)) {
-                *r = *r - l0 * z0 - l1 * z1 - l2 * z2;
-            }
-            let row = i + 3 + rows;
-            if row < size {
-                rc[row] =
-                    rc[row] - below[(i + 1) * bw + bw - 1] * z1 - below[(i + 2) * bw + bw - 2] * z2;
-            }
-            if row + 1 < size {
-                rc[row + 1] -= below[(i + 2) * bw + bw - 1] * z2;
-            }
+        let [lower, separator, upper, tail] = self.split(rc);
+        self.forward_lower(lower, tail);
+        self.forward_upper(upper, separator);
+        self.solve_separator(separator, tail);
+        self.backward_lower(lower, separator);
+        self.backward_upper(upper, separator);
+    }
+
+    /// The coarse right-hand side (see [`Coarse::take_scratch`]) cut into
+    /// its lower bands, separator band, upper bands and the scratch after
+    /// them.
+    pub(super) fn split<'a>(&self, rc: &'a mut [f64]) -> [&'a mut [f64]; 4] {
+        let (below, band, size) = self.sizes();
+        let (lower, rest) = rc.split_at_mut(below);
+        let (separator, rest) = rest.split_at_mut(band);
+        let (upper, tail) = rest.split_at_mut(size - below - band);
+        [lower, separator, upper, tail]
+    }
+
+    /// `z_L = L_L⁻¹ r_L`, and `X_Lᵀ z_L` into `tail` (thread 0 of a split
+    /// solve).
+    #[inline(always)]
+    pub(super) fn forward_lower(&self, lower: &mut [f64], tail: &mut [f64]) {
+        self.lower.forward(lower, 0);
+        self.cross_times(0, lower, tail);
+    }
+
+    /// `z_U = L_U⁻¹ r_U` (the bands reversed in place), then `r_S −= X_Uᵀ
+    /// z_U` (thread 1).
+    #[inline(always)]
+    pub(super) fn forward_upper(&self, upper: &mut [f64], separator: &mut [f64]) {
+        reverse_aggregates(upper);
+        self.upper.forward(upper, 0);
+        let mut t = [0.0; MAX_DENSE];
+        let t = &mut t[..separator.len()];
+        self.cross_times(1, upper, t);
+        for (s, t) in separator.iter_mut().zip(t) {
+            *s -= *t;
         }
-        // Lᵀ e = z. Row i of L holds L[i][j] at `band[i·width + j + bw − i]`.
-        let width = bw + 1;
-        let at = |i: usize, j: usize| band[i * width + j + bw - i];
-        for i in (0..size).step_by(3).rev() {
-            let e2 = rc[i + 2] * inverse[i + 2];
-            let e1 = (rc[i + 1] - at(i + 2, i + 1) * e2) * inverse[i + 1];
-            let e0 = (rc[i] - at(i + 2, i) * e2 - at(i + 1, i) * e1) * inverse[i];
-            (rc[i], rc[i + 1], rc[i + 2]) = (e0, e1, e2);
-            // Rows i + 2, i + 1, i of L off rows up to i − 1: all three
-            // reach back to row i + 2 − bw, the last two one and two
-            // rows further.
-            let first = (i + 2).saturating_sub(bw);
-            let rows = i - first;
-            let r2 = &band[(i + 2) * width + first + bw - (i + 2)..][..rows];
-            let r1 = &band[(i + 1) * width + first + bw - (i + 1)..][..rows];
-            let r0 = &band[i * width + first + bw - i..][..rows];
-            let target = &mut rc[first..i];
-            for (z, ((&l2, &l1), &l0)) in target.iter_mut().zip(r2.iter().zip(r1).zip(r0)) {
-                *z = *z - l2 * e2 - l1 * e1 - l0 * e0;
-            }
-            if first >= 1 {
-                let j = first - 1;
-                rc[j] = rc[j] - at(i + 1, j) * e1 - at(i, j) * e0;
-            }
-            if first >= 2 {
-                let j = first - 2;
-                rc[j] -= at(i, j) * e0;
+    }
+
+    /// `e_S = L_S⁻ᵀ L_S⁻¹ (r_S − X_Uᵀ z_U − X_Lᵀ z_L)`, the last term from
+    /// `tail` (thread 1, between two barriers).
+    #[inline(always)]
+    pub(super) fn solve_separator(&self, separator: &mut [f64], tail: &[f64]) {
+        for (s, t) in separator.iter_mut().zip(tail) {
+            *s -= t;
+        }
+        self.separator.solve(separator);
+    }
+
+    /// `e_L = L_L⁻ᵀ (z_L − X_L e_S)` (thread 0).
+    #[inline(always)]
+    pub(super) fn backward_lower(&self, lower: &mut [f64], separator: &[f64]) {
+        self.cross_back(0, lower, separator);
+        self.lower.backward(lower);
+    }
+
+    /// `e_U = L_U⁻ᵀ (z_U − X_U e_S)`, the bands put back in order (thread 1).
+    #[inline(always)]
+    pub(super) fn backward_upper(&self, upper: &mut [f64], separator: &[f64]) {
+        self.cross_back(1, upper, separator);
+        self.upper.backward(upper);
+        reverse_aggregates(upper);
+    }
+
+    /// `out = Xᵀ z` of side `k` (`z`'s last band of rows against `X`).
+    #[inline(always)]
+    fn cross_times(&self, k: usize, z: &[f64], out: &mut [f64]) {
+        let band = out.len();
+        out.fill(0.0);
+        if z.is_empty() {
+            return;
+        }
+        let rows = &z[z.len() - band..];
+        for (row, &zm) in self.cross[k].chunks_exact(band).zip(rows) {
+            for (o, &x) in out.iter_mut().zip(row) {
+                *o += x * zm;
             }
         }
     }
 
+    /// `z −= X e_S` of side `k` (on `z`'s last band of rows).
+    #[inline(always)]
+    fn cross_back(&self, k: usize, z: &mut [f64], separator: &[f64]) {
+        let band = separator.len();
+        if z.is_empty() {
+            return;
+        }
+        let rows = z.len() - band..;
+        for (row, zm) in self.cross[k].chunks_exact(band).zip(&mut z[rows]) {
+            let s: f64 = row.iter().zip(separator).map(|(x, e)| x * e).sum();
+            *zm -= s;
+        }
+    }
     /// `y += R e` over one band of aggregates, pins left alone: `rc` holds
     /// the band's `3 × columns` entries of `e` (m/s), `y` and `free` the
     /// band's particles; a row of corrections is formed in `sums`, then

@@ -114,7 +114,7 @@ impl Halves {
         let kernel = kernel()?;
         let (at, band) = match coarse {
             Some(c) if c.bands() >= 2 => {
-                let band = c.bands() / 2;
+                let band = c.separator_band();
                 (c.band_rows(band, n).start, band)
             }
             Some(_) => return None,
@@ -352,20 +352,38 @@ unsafe fn body(s: &Shared, team: &Team, part: usize) -> (u32, f64) {
     (iterations, delta)
 }
 
-/// `y += R A_c⁻¹ Rᵀ r` with the bands split at `band`: this thread's bands
-/// restricted, the solve on thread 0 between two barriers, this thread's
-/// bands prolonged.
+/// `y += R A_c⁻¹ Rᵀ r` with the bands split at the separator band `band`
+/// ([`Coarse::split`]): this thread's bands restricted and its side's
+/// forward substitution; a barrier, the separator's small dense solve on
+/// thread 1 (which holds the separator band), a barrier; this thread's
+/// side's backward substitution and its bands prolonged.
 ///
 /// # Safety
 /// As for [`body`]; `r` of this half is settled.
 #[inline(always)]
 unsafe fn coarse_half(s: &Shared, c: &Coarse, team: &Team, part: usize, band: usize) {
     let bands = if part == 0 { 0..band } else { band..c.bands() };
-    let (rc, size) = s.rc;
-    let (row, length) = s.rows[part];
+    let (rc, length) = s.rc;
+    let (row, row_length) = s.rows[part];
     // SAFETY: each thread has its own row.
-    let sums = unsafe { std::slice::from_raw_parts_mut(row, length) };
-    let per_band = size / c.bands();
+    let sums = unsafe { std::slice::from_raw_parts_mut(row, row_length) };
+    let (below, width, size) = c.sizes();
+    debug_assert_eq!(length, size + width);
+    let per_band = width;
+    // The pieces of `rc` ([`Coarse::split`]): the lower bands and the
+    // scratch after all bands are thread 0's, the separator and upper
+    // bands thread 1's, but for the reads noted below.
+    let (lower, separator, upper, tail) = (
+        0..below,
+        below..below + width,
+        below + width..size,
+        size..size + width,
+    );
+    // SAFETY (of each use): `rc` holds `length` values; the piece is the
+    // thread's own, or read by both while neither writes it.
+    let piece = |range: Range<usize>| unsafe {
+        std::slice::from_raw_parts_mut(rc.add(range.start), range.len())
+    };
     for j in bands.clone() {
         let rows = c.band_rows(j, s.n);
         // SAFETY: band j's particles are in this half; its entries of `rc`
@@ -378,12 +396,26 @@ unsafe fn coarse_half(s: &Shared, c: &Coarse, team: &Team, part: usize, band: us
         };
         c.restrict_band(r, rc, sums);
     }
-    team.barrier(part);
     if part == 0 {
-        // SAFETY: the other thread does not touch `rc` between the barriers.
-        c.solve(unsafe { std::slice::from_raw_parts_mut(rc, size) });
+        c.forward_lower(piece(lower.clone()), piece(tail.clone()));
+    } else {
+        c.forward_upper(piece(upper.clone()), piece(separator.clone()));
     }
     team.barrier(part);
+    if part == 1 {
+        // Thread 0 wrote `tail` before the barrier and leaves it alone
+        // until the next iteration's.
+        c.solve_separator(piece(separator.clone()), piece(tail));
+    }
+    team.barrier(part);
+    // Both read the separator, settled until the next iteration's
+    // restriction, several barriers on.
+    let settled = &*piece(separator);
+    if part == 0 {
+        c.backward_lower(piece(lower), settled);
+    } else {
+        c.backward_upper(piece(upper), settled);
+    }
     for j in bands {
         let rows = c.band_rows(j, s.n);
         // SAFETY: band j's particles are in this half (this thread writes

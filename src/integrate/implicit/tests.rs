@@ -162,42 +162,51 @@ fn block_jacobi_inverts_the_diagonal_blocks() {
 
 #[test]
 fn the_coarse_operator_is_r_transpose_a_r() {
-    // 12×12 in aggregates of 4×4: a 3×3 coarse grid, so every kind of
-    // neighbour (across, down, both diagonals) and the pins' aggregate occur.
-    let (cloth, _, blocks) = deformed(12);
-    let w = &cloth.particles.inverse_masses;
-    let h = 1.0 / 60.0;
-    let mut coarse = Coarse::default();
-    assert!(coarse.begin(12, w, 1.1));
-    let mut op = Operator::default();
-    op.build(12, w, 1.1, &blocks, h, h * h, Some(&mut coarse));
-    assert!(coarse.finish());
-    assert_eq!(coarse.aggregate_of(143), 8);
-    // A_c⁻¹ applied to Rᵀ(A R e) must give back e, for any e per aggregate.
-    let e: Vec<Vec3> = (0..9)
-        .map(|k| Vec3::new(1.0 + k as f32, -0.5 * k as f32, 0.25))
-        .collect();
-    let mut re = Soa::default();
-    re.resize(144);
-    for (p, &wp) in w.iter().enumerate() {
-        if wp != 0.0 {
-            re.set(p, e[coarse.aggregate_of(p)]);
+    // In aggregates of 4×4 (8×8 for 64): coarse grids of 1×1 (the
+    // separator band alone), 2×2 (no band above it), 3×3 (every kind of
+    // neighbour, across, down and both diagonals, and the pins' aggregate),
+    // 4×4 and 5×5 (several bands on either side) and 8×8.
+    for (n, side) in [(4, 1), (8, 2), (12, 3), (16, 4), (20, 5), (64, 8)] {
+        let (cloth, _, blocks) = deformed(n);
+        let w = &cloth.particles.inverse_masses;
+        let particles = (n * n) as usize;
+        let h = 1.0 / 60.0;
+        let mut coarse = Coarse::default();
+        assert!(coarse.begin(n as usize, w, 1.1));
+        let mut op = Operator::default();
+        op.build(n as usize, w, 1.1, &blocks, h, h * h, Some(&mut coarse));
+        assert!(coarse.finish());
+        assert_eq!(coarse.aggregate_of(particles - 1), side * side - 1);
+        // A_c⁻¹ applied to Rᵀ(A R e) must give back e, for any e per
+        // aggregate.
+        let e: Vec<Vec3> = (0..side * side)
+            .map(|k| Vec3::new(1.0 + k as f32, -0.5 * k as f32, 0.25))
+            .collect();
+        let mut re = Soa::default();
+        re.resize(particles);
+        for (p, &wp) in w.iter().enumerate() {
+            if wp != 0.0 {
+                re.set(p, e[coarse.aggregate_of(p)]);
+            }
         }
-    }
-    let mut are = Soa::default();
-    are.resize(144);
-    op.apply(&re, &mut are);
-    // y = R A_c⁻¹ Rᵀ (A R e) = R e at free particles.
-    let mut y = Soa::default();
-    y.resize(144);
-    coarse.add(&are, &mut y, &op.free);
-    for (p, &wp) in w.iter().enumerate() {
-        let want = if wp == 0.0 { Vec3::ZERO } else { re.get(p) };
-        assert!(
-            (y.get(p) - want).length() < 1e-3 * want.length().max(1.0),
-            "{p}: {} vs {want}",
-            y.get(p)
-        );
+        let mut are = Soa::default();
+        are.resize(particles);
+        op.apply(&re, &mut are);
+        // y = R A_c⁻¹ Rᵀ (A R e) = R e at free particles, to the digits
+        // the f32 product leaves of a stiff operator: at 64×64, 0.9982 for
+        // 1 (the same from the banded factor of all bands at once).
+        let mut y = Soa::default();
+        y.resize(particles);
+        coarse.add(&are, &mut y, &op.free);
+        let tolerance = if n < 64 { 1e-3 } else { 3e-3 };
+        for (p, &wp) in w.iter().enumerate() {
+            let want = if wp == 0.0 { Vec3::ZERO } else { re.get(p) };
+            assert!(
+                (y.get(p) - want).length() < tolerance * want.length().max(1.0),
+                "{n}×{n}, {p}: {} vs {want}",
+                y.get(p)
+            );
+        }
     }
 }
 
