@@ -20,9 +20,12 @@
 //! `A_c[I][J]`; inside one aggregate it cancels; against a pinned particle
 //! it adds `C` to the free side's diagonal; masses add up. A grid link
 //! reaches at most 2 particles, so for `s ≥ 2` aggregates couple only to
-//! their 8 neighbours and `A_c` is banded. It is factored by a banded
-//! Cholesky in f64, sized so the aggregates form at most a
-//! [`COARSE_SIDE`]² grid: the factorisation is a few tens of µs per step.
+//! their 8 neighbours and `A_c` is banded. It is factored in f64 by
+//! banded Cholesky factors of the bands below and above a separator band
+//! and a dense one of the separator's Schur complement (`factor.rs`), so
+//! that the solve splits between two threads; sized so the aggregates
+//! form at most a [`COARSE_SIDE`]² grid, the factorisation is a few tens of
+//! µs per step.
 
 use bevy::math::{Mat3A, Vec3};
 

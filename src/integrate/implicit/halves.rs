@@ -7,9 +7,11 @@
 //! 1. `q = A d` (the gathered product reads `d` across the cut) and
 //!    `dᵀq`, summed over both halves at a barrier;
 //! 2. `Δv += αd`, `r −= αq`, `y = B⁻¹r`, and `Rᵀr` of the half's bands of
-//!    aggregates (the cut lies between two bands); a barrier, the coarse
-//!    triangular solves on the calling thread, a barrier, then `y += Re`
-//!    over the half's bands;
+//!    aggregates (the cut lies at the coarse factor's separator band, the
+//!    upper half's first) and the forward substitution of its side of the
+//!    coarse factor; a barrier, the separator's small dense solve on the
+//!    helper, a barrier, then the side's backward substitution and
+//!    `y += Re` over the half's bands;
 //! 3. `rᵀy`, summed at a barrier; `d = y + βd`; a barrier.
 //!
 //! Every value is formed by the same operations as on one thread, and the
@@ -153,9 +155,9 @@ fn kernel() -> Option<Kernel> {
 }
 
 /// The vectors of one solve, shared by both threads. Each pass writes only
-/// its own half of a vector (the coarse solve, all of `rc`, runs on one
-/// thread between two barriers), and reads the other half only after a
-/// barrier that follows the other thread's writes.
+/// its own half of a vector (of `rc`, its side of the coarse factor), and
+/// reads the other half only after a barrier that follows the other
+/// thread's writes.
 struct Shared<'a> {
     op: &'a Operator,
     coarse: Option<&'a Coarse>,

@@ -234,13 +234,37 @@ impl Dense {
                 self.a[i * n + j] = s / d;
             }
         }
-        // Column j of A⁻¹ formed in row j: A⁻¹ is symmetric.
-        self.inverse.clear();
-        self.inverse.resize(n * n, 0.0);
-        for j in 0..n {
-            let column = &mut self.inverse[j * n..(j + 1) * n];
-            column[j] = 1.0;
-            substitute(&self.a, n, column);
+        // A⁻¹ = L⁻ᵀ L⁻¹ I, both substitutions a whole row at a time (runs
+        // of independent sums, where a column at a time chained them).
+        let (l, x) = (&self.a, &mut self.inverse);
+        x.clear();
+        x.resize(n * n, 0.0);
+        for i in 0..n {
+            x[i * n + i] = 1.0;
+        }
+        for k in 0..n {
+            let (done, rest) = x.split_at_mut((k + 1) * n);
+            let row = &mut done[k * n..];
+            let pivot = l[k * n + k];
+            row.iter_mut().for_each(|v| *v /= pivot);
+            for (i, target) in (k + 1..n).zip(rest.chunks_exact_mut(n)) {
+                let lik = l[i * n + k];
+                for (t, &r) in target.iter_mut().zip(&*row) {
+                    *t -= lik * r;
+                }
+            }
+        }
+        for i in (0..n).rev() {
+            let (before, from) = x.split_at_mut(i * n);
+            let row = &mut from[..n];
+            let pivot = l[i * n + i];
+            row.iter_mut().for_each(|v| *v /= pivot);
+            for (k, target) in before.chunks_exact_mut(n).enumerate() {
+                let lik = l[i * n + k];
+                for (t, &r) in target.iter_mut().zip(&*row) {
+                    *t -= lik * r;
+                }
+            }
         }
         true
     }
@@ -259,22 +283,3 @@ impl Dense {
 
 /// The most unknowns of a [`Dense`] solve.
 pub(super) const MAX_DENSE: usize = 3 * super::COARSE_SIDE;
-
-/// `x = L⁻ᵀ L⁻¹ x` for the factor `L` in the lower triangle of the
-/// row-major `n × n` matrix `l`.
-fn substitute(l: &[f64], n: usize, x: &mut [f64]) {
-    for i in 0..n {
-        let mut s = x[i];
-        for k in 0..i {
-            s -= l[i * n + k] * x[k];
-        }
-        x[i] = s / l[i * n + i];
-    }
-    for i in (0..n).rev() {
-        let mut s = x[i];
-        for k in i + 1..n {
-            s -= l[k * n + i] * x[k];
-        }
-        x[i] = s / l[i * n + i];
-    }
-}
