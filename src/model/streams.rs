@@ -70,6 +70,9 @@ pub struct ForceStreams {
     w: Soa,
     kw: Soa,
     dg: Vec<f32>,
+    /// `g`, `g′` and `ℓ` again, for the calling thread while the helper
+    /// thread uses the first (a linearisation split between them).
+    second: [Vec<f32>; 3],
 }
 
 /// The streams of one family and the copy of the links they came from.
