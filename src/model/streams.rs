@@ -38,7 +38,7 @@ pub(crate) use linearise::{Linearisation, StreamBlocks};
 use super::choi_ko::MIN_LENGTH;
 use super::kernel::{self, Law, Target};
 use crate::connections::Link;
-use crate::soa::Soa;
+use crate::soa::{Aligned, Soa};
 
 /// At most this many streams per family (a grid family has two steps).
 const MAX_STREAMS: usize = 4;
@@ -94,9 +94,9 @@ struct Stream {
     delta: usize,
     lo: usize,
     /// Rest length (m) of the link at `lo + i`, NaN where there is none.
-    rest: Vec<f32>,
+    rest: Aligned,
     /// `1/L` (1/m) of each rest length (NaN where there is none).
-    inv_rest: Vec<f32>,
+    inv_rest: Aligned,
     /// The force (N) on the lower particle of each pair at the last
     /// evaluation, slot `i` at `delta + i`, with zeros before (`delta` of
     /// them, never written) and after the slots (up to `delta` +
@@ -107,7 +107,7 @@ struct Stream {
     pair_kw: Soa,
     /// The blocks `C = t I + s u uᵀ` of each slot at the last
     /// linearisation: `t`, `s` (kg), `u` by component.
-    blocks: [Vec<f32>; 5],
+    blocks: [Aligned; 5],
 }
 
 impl FamilyStreams {
@@ -155,8 +155,8 @@ impl FamilyStreams {
                 self.streams.push(Stream {
                     delta,
                     lo,
-                    rest: Vec::new(),
-                    inv_rest: Vec::new(),
+                    rest: Aligned::default(),
+                    inv_rest: Aligned::default(),
                     pair: Soa::default(),
                     pair_kw: Soa::default(),
                     blocks: Default::default(),
@@ -189,8 +189,10 @@ impl FamilyStreams {
             }
         }
         for s in &mut self.streams {
-            s.inv_rest.clear();
-            s.inv_rest.extend(s.rest.iter().map(|r| 1.0 / r));
+            s.inv_rest.resize(s.rest.len(), 0.0);
+            for (inv, r) in s.inv_rest.iter_mut().zip(&s.rest) {
+                *inv = 1.0 / r;
+            }
         }
     }
 }

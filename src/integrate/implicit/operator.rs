@@ -31,6 +31,7 @@ use bevy::math::{Mat3, Vec3};
 use super::coarse::Coarse;
 use crate::model::jacobian::Block;
 use crate::model::streams::StreamBlocks;
+use crate::soa::Aligned;
 pub(super) use crate::soa::Soa;
 
 mod gather;
@@ -74,7 +75,7 @@ pub(super) fn dot_parts(a: [&[f32]; 3], b: [&[f32]; 3]) -> f64 {
 
 /// Symmetric 3×3 blocks, component by component: xx, yy, zz, xy, xz, yz.
 #[derive(Clone, Debug, Default)]
-pub(super) struct SymBlocks(pub [Vec<f32>; 6]);
+pub(super) struct SymBlocks(pub [Aligned; 6]);
 
 impl SymBlocks {
     fn reset(&mut self, n: usize) {
@@ -102,9 +103,9 @@ impl SymBlocks {
 /// rather than 15. A slot whose `t` and `s` are both 0 holds no block.
 #[derive(Clone, Debug, Default)]
 pub(super) struct RankBlocks {
-    t: Vec<f32>,
-    s: Vec<f32>,
-    u: [Vec<f32>; 3],
+    t: Aligned,
+    s: Aligned,
+    u: [Aligned; 3],
     /// Whether any `t` is not 0 (Type 2 streams have none by default),
     /// else the product skips it.
     transverse: bool,
@@ -233,9 +234,9 @@ pub(super) struct Operator {
     /// Pairs outside the streams, with their blocks.
     others: Vec<([u32; 2], [f32; 6])>,
     /// `M(1 + αc)` of free particles, 0 for pinned ones (kg).
-    mass: Vec<f32>,
+    mass: Aligned,
     /// 1 for a free particle, 0 for a pinned one.
-    pub free: Vec<f32>,
+    pub free: Aligned,
     /// Inverses of `A`'s 3×3 diagonal blocks (identity for pins).
     precond: SymBlocks,
     /// Products of one stream.
@@ -376,13 +377,13 @@ impl Operator {
                 }
             }
         }
-        self.mass.clear();
-        self.free.clear();
+        self.mass.resize(n, 0.0);
+        self.free.resize(n, 0.0);
         for (i, &w) in inverse_masses.iter().enumerate() {
             let free = w != 0.0;
             let m = if free { mass_scale / w } else { 0.0 };
-            self.mass.push(m);
-            self.free.push(if free { 1.0 } else { 0.0 });
+            self.mass[i] = m;
+            self.free[i] = if free { 1.0 } else { 0.0 };
             let mut s = diag.get(i);
             for d in &mut s[..3] {
                 *d += m;
