@@ -84,7 +84,7 @@ impl Soa {
 }
 
 /// One 64-byte cache line of `f32`s, the unit of an [`Aligned`] buffer.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Copy, Default)]
 #[repr(C, align(64))]
 struct Line([f32; 16]);
 
@@ -93,7 +93,7 @@ struct Line([f32; 16]);
 /// never straddle two lines. With `Vec<f32>`'s 16-byte alignment three
 /// arrays in four started mid-line, and every 64-byte load from them
 /// touched two lines.
-#[derive(Clone, Debug, Default, PartialEq)]
+#[derive(Clone, Default)]
 pub(crate) struct Aligned {
     lines: Vec<Line>,
     len: usize,
@@ -113,6 +113,13 @@ impl Aligned {
     /// Empties the array (keeping its memory).
     pub fn clear(&mut self) {
         self.len = 0;
+    }
+}
+
+impl std::fmt::Debug for Aligned {
+    /// The values, not the unused rest of the last line.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_list().entries(self.iter()).finish()
     }
 }
 

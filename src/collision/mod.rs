@@ -429,8 +429,6 @@ fn clear_colliders(_main: crate::schedule::MainThread, mut scene: ResMut<Collide
     }
 }
 
-/// [`ClothSystems::Collide`]: the seed's
-/// triangle–triangle pass against mesh colliders, once per fixed step.
 /// Run condition of [`seed_pass`]: the scene has a mesh collider (only
 /// those take part), so that a scene of analytic shapes costs it nothing.
 fn mesh_in_scene(scene: Res<ColliderScene>) -> bool {
@@ -440,6 +438,8 @@ fn mesh_in_scene(scene: Res<ColliderScene>) -> bool {
         .any(|c| matches!(c.shape, ColliderShape::Mesh(_)))
 }
 
+/// [`ClothSystems::Collide`]: the seed's
+/// triangle–triangle pass against mesh colliders, once per fixed step.
 fn seed_pass(
     _main: crate::schedule::MainThread,
     time: Res<Time<Fixed>>,

@@ -27,6 +27,8 @@
 //! form at most a [`COARSE_SIDE`]² grid, the factorisation is a few tens of
 //! µs per step.
 
+use std::ops::Range;
+
 use bevy::math::{Mat3A, Vec3};
 
 use super::operator::{Soa, rank_block, sym_matrix, sym_of};
@@ -280,7 +282,7 @@ impl Coarse {
     }
 
     /// Unknowns below the separator, in it, and in all (`3 × count`).
-    pub(super) fn sizes(&self) -> (usize, usize, usize) {
+    fn sizes(&self) -> (usize, usize, usize) {
         let band = 3 * self.columns;
         (band * self.separator_band(), band, 3 * self.count)
     }
@@ -389,6 +391,7 @@ impl Coarse {
         self.rc.resize(size + band, 0.0);
         true
     }
+
     /// The aggregate of free particle `p` (for tests).
     #[cfg(test)]
     pub(super) fn aggregate_of(&self, p: usize) -> usize {
@@ -457,8 +460,8 @@ impl Coarse {
         }
     }
 
-    /// `rc = A_c⁻¹ rc` (N·s in, m/s out; `rc` as [`Coarse::split`]
-    /// takes it), the passes of both threads of a split solve in turn.
+    /// `rc = A_c⁻¹ rc` (N·s in, m/s out; `rc` in its
+    /// [`Coarse::pieces`]), the passes of both threads of a split solve in turn.
     #[inline(always)]
     pub(super) fn solve(&self, rc: &mut [f64]) {
         let [lower, separator, upper, tail] = self.split(rc);
@@ -469,14 +472,25 @@ impl Coarse {
         self.backward_upper(upper, separator);
     }
 
-    /// The coarse right-hand side (see [`Coarse::take_scratch`]) cut into
-    /// its lower bands, separator band, upper bands and the scratch after
-    /// them.
-    pub(super) fn split<'a>(&self, rc: &'a mut [f64]) -> [&'a mut [f64]; 4] {
+    /// Where the coarse right-hand side (see [`Coarse::take_scratch`])
+    /// holds its lower bands, separator band, upper bands and the scratch
+    /// after them.
+    pub(super) fn pieces(&self) -> [Range<usize>; 4] {
         let (below, band, size) = self.sizes();
-        let (lower, rest) = rc.split_at_mut(below);
-        let (separator, rest) = rest.split_at_mut(band);
-        let (upper, tail) = rest.split_at_mut(size - below - band);
+        [
+            0..below,
+            below..below + band,
+            below + band..size,
+            size..size + band,
+        ]
+    }
+
+    /// `rc` cut into its [`Coarse::pieces`].
+    fn split<'a>(&self, rc: &'a mut [f64]) -> [&'a mut [f64]; 4] {
+        let [lower, separator, upper, _] = self.pieces();
+        let (lower, rest) = rc.split_at_mut(lower.end);
+        let (separator, rest) = rest.split_at_mut(separator.len());
+        let (upper, tail) = rest.split_at_mut(upper.len());
         [lower, separator, upper, tail]
     }
 

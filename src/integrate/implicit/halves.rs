@@ -355,7 +355,7 @@ unsafe fn body(s: &Shared, team: &Team, part: usize) -> (u32, f64) {
 }
 
 /// `y += R A_c⁻¹ Rᵀ r` with the bands split at the separator band `band`
-/// ([`Coarse::split`]): this thread's bands restricted and its side's
+/// ([`Coarse::pieces`]): this thread's bands restricted and its side's
 /// forward substitution; a barrier, the separator's small dense solve on
 /// thread 1 (which holds the separator band), a barrier; this thread's
 /// side's backward substitution and its bands prolonged.
@@ -369,18 +369,12 @@ unsafe fn coarse_half(s: &Shared, c: &Coarse, team: &Team, part: usize, band: us
     let (row, row_length) = s.rows[part];
     // SAFETY: each thread has its own row.
     let sums = unsafe { std::slice::from_raw_parts_mut(row, row_length) };
-    let (below, width, size) = c.sizes();
-    debug_assert_eq!(length, size + width);
-    let per_band = width;
-    // The pieces of `rc` ([`Coarse::split`]): the lower bands and the
-    // scratch after all bands are thread 0's, the separator and upper
-    // bands thread 1's, but for the reads noted below.
-    let (lower, separator, upper, tail) = (
-        0..below,
-        below..below + width,
-        below + width..size,
-        size..size + width,
-    );
+    // The pieces of `rc`: the lower bands and the scratch after all bands
+    // are thread 0's, the separator and upper bands thread 1's, but for
+    // the reads noted below.
+    let [lower, separator, upper, tail] = c.pieces();
+    debug_assert_eq!(length, tail.end);
+    let per_band = separator.len();
     // SAFETY (of each use): `rc` holds `length` values; the piece is the
     // thread's own, or read by both while neither writes it.
     let piece = |range: Range<usize>| unsafe {
