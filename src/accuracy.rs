@@ -50,7 +50,8 @@ impl Preset {
     pub fn settings(self, model: ClothModel, integrator: Integrator) -> ClothSettings {
         let mut s = ClothSettings::default()
             .with_model(model)
-            .with_integrator(integrator, 1);
+            .with_integrator(integrator, 1)
+            .without_adaptive();
         if self == Preset::Seed {
             let k = 3.6;
             s.damping = 9.6;

@@ -1,4 +1,4 @@
-//! Adaptive substeps (opt-in): explicit integrators pick their substep count
+//! Adaptive substeps (on by default): explicit integrators pick their substep count
 //! from an estimate of the cloth's stiffest mode, so that changing stiffness
 //! or mass at run time cannot push them past their stability bound.
 //!
@@ -55,7 +55,7 @@ use crate::model::choi_ko::{BUCKLING_TABLE, MIN_LENGTH, type2_magnitude};
 use crate::particles::ClothParticles;
 use crate::settings::{ClothModel, ClothSettings, Integrator};
 
-/// Opt-in adaptive substeps ([`ClothSettings::adaptive`]).
+/// Adaptive substeps, on by default ([`ClothSettings::adaptive`]).
 ///
 /// With it, an explicit integrator runs `max(substeps, n)` substeps, `n`
 /// being the fewest that keep each substep within `safety` times its

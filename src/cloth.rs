@@ -88,8 +88,11 @@ pub enum ClothError {
     /// A collider's shape or material is invalid, or its mesh unusable.
     #[error("invalid collider: {0}")]
     InvalidCollider(&'static str),
-    /// The implicit solve needs a tolerance in (0, 1) and at least one iteration.
-    #[error("the implicit solver needs a tolerance in (0, 1) and at least one iteration")]
+    /// The implicit solve needs a tolerance in (0, 1), at least one
+    /// iteration and a finite, non-negative Newton strain.
+    #[error(
+        "the implicit solver needs a tolerance in (0, 1), at least one iteration and a finite, non-negative newton_strain"
+    )]
     InvalidSolver,
     /// A crease is invalid (non-finite, ratio outside (0, 1], angle outside
     /// [0, π), zero length, or missing the cloth).

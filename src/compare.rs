@@ -75,7 +75,8 @@ pub fn wrinkle_measure(cloth: &Cloth, x: &[Vec3]) -> f32 {
 pub fn pull_and_release(model: ClothModel) -> Residual {
     let settings = ClothSettings::default()
         .with_model(model)
-        .with_integrator(Integrator::Rk4, 1);
+        .with_integrator(Integrator::Rk4, 1)
+        .without_adaptive();
     let mut cloth = scene(15);
     // The free bottom-left corner (column 0, last row).
     let corner = cloth.cloth.index(0, cloth.cloth.rows - 1) as usize;

@@ -32,7 +32,9 @@ use crate::step::ClothForces;
 #[derive(Clone, Copy, Debug, PartialEq, Reflect)]
 pub enum GrabMode {
     /// Pinned and carried to the target each fixed step (exact, infinitely
-    /// stiff). On release the particle keeps the velocity it was moving at.
+    /// stiff). On release a free particle keeps the velocity it was moving
+    /// at (a flick); one that was pinned before the grab stays pinned, at
+    /// rest, where the grab left it.
     Kinematic,
     /// A zero-rest-length spring to the target.
     Spring {
@@ -187,7 +189,10 @@ pub(crate) fn apply_grabs(
         let n = particles.len();
         let ClothGrabs { grabs, released } = &mut *grabs;
         for (p, was_pinned) in released.drain(..) {
-            if !was_pinned {
+            if was_pinned {
+                // A pin stays where the grab left it, at rest.
+                particles.pin(p as usize);
+            } else {
                 particles.unpin(p as usize);
             }
         }

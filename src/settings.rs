@@ -37,13 +37,15 @@ pub enum Integrator {
     ExplicitEuler,
     /// Symplectic Euler: positions move with the *new* velocity. Same cost
     /// as explicit Euler, stable for `dt ≲ 2/ω_max` (MODEL.md §6.2).
-    #[default]
     SymplecticEuler,
     /// Classical Runge–Kutta, 4 force evaluations a step, stable for
     /// `dt ≲ 2.83/ω_max` (MODEL.md §6.3).
     Rk4,
     /// Linearised backward Euler (Baraff–Witkin, MODEL.md §6.5): one linear
-    /// solve a step, stable at any step; first order.
+    /// solve a step, stable at any step; first order. The default: one step
+    /// per fixed step holds any cloth, and its numerical damping takes the
+    /// energy out of a yank or a storm.
+    #[default]
     BackwardEuler,
     /// Second-order BDF, what Choi & Ko used (MODEL.md §6.6): one linear
     /// solve a step, stable at any step; second order. Its first step (and
@@ -140,6 +142,16 @@ pub struct ImplicitParams {
     /// ([`collision::SPLIT_PARTICLES`](crate::collision::SPLIT_PARTICLES)).
     /// The result is bitwise the same either way. On by default.
     pub helper_thread: bool,
+    /// Most extra Newton iterations of a step
+    /// ([`newton_correction`](crate::integrate::implicit::newton_correction))
+    /// whose end state strains a Type 1 link past
+    /// [`newton_strain`](Self::newton_strain): a step that moves the cloth
+    /// far from where its forces were linearised (a storm's first gust on
+    /// a slack sheet) is solved again where it ended. 0 turns it off.
+    pub newton_iterations: u32,
+    /// The Type 1 strain (dimensionless) above which a step gets its extra
+    /// Newton iterations, if it also grew by a fifth since the last step.
+    pub newton_strain: f32,
 }
 
 impl Default for ImplicitParams {
@@ -151,6 +163,8 @@ impl Default for ImplicitParams {
             slack_stiffness: SlackStiffness::Auto,
             coarse_grid: true,
             helper_thread: true,
+            newton_iterations: 3,
+            newton_strain: 0.25,
         }
     }
 }
@@ -223,9 +237,11 @@ impl Default for LanderParams {
 
 /// How a cloth is simulated: on a cloth entity, overrides [`ClothDefaults`].
 ///
-/// The default is the cotton cloth of MODEL.md §11 under symplectic Euler
-/// with 40 substeps per fixed step: at Bevy's default 64 Hz that is a
-/// 0.39 ms substep, inside symplectic Euler's 0.55 ms bound for this cloth.
+/// The default steps every cloth, of any size and material, once per fixed
+/// step with backward Euler, whose linear solve is stable at any step.
+/// Choosing an explicit integrator (`with_integrator`) keeps
+/// [`adaptive`](Self::adaptive) substeps on, so the substep follows the
+/// cloth's stiffest mode and no stability bound needs computing by hand.
 #[derive(Component, Clone, Debug, PartialEq, Reflect)]
 #[reflect(Component, Default)]
 pub struct ClothSettings {
@@ -251,8 +267,10 @@ pub struct ClothSettings {
     pub guard: crate::guard::GuardSettings,
     /// Whether the internal forces are evaluated in parallel bands.
     pub parallel: Parallelism,
-    /// Opt-in adaptive substeps for the explicit integrators: `None` runs
-    /// exactly [`substeps`](Self::substeps).
+    /// Adaptive substeps for the explicit integrators (on by default; the
+    /// implicit ones ignore it): at least [`substeps`](Self::substeps), and
+    /// as many more as the cloth's stiffest mode needs. `None` runs exactly
+    /// [`substeps`](Self::substeps).
     pub adaptive: Option<crate::adaptive::AdaptiveSubsteps>,
 }
 
@@ -311,8 +329,8 @@ impl Default for ClothSettings {
     fn default() -> Self {
         Self {
             model: ClothModel::ChoiKo,
-            integrator: Integrator::SymplecticEuler,
-            substeps: 40,
+            integrator: Integrator::BackwardEuler,
+            substeps: 1,
             gravity: Vec3::new(0.0, -9.81, 0.0),
             damping: 2.0,
             choi_ko: ChoiKoParams::default(),
@@ -320,7 +338,7 @@ impl Default for ClothSettings {
             implicit: ImplicitParams::default(),
             guard: crate::guard::GuardSettings::default(),
             parallel: Parallelism::Auto,
-            adaptive: None,
+            adaptive: Some(crate::adaptive::AdaptiveSubsteps::default()),
         }
     }
 }
@@ -363,6 +381,7 @@ impl ClothSettings {
         let tolerance = self.implicit.tolerance;
         if !(tolerance.is_finite() && tolerance > 0.0 && tolerance < 1.0)
             || self.implicit.max_iterations == 0
+            || !(self.implicit.newton_strain.is_finite() && self.implicit.newton_strain >= 0.0)
         {
             return Err(ClothError::InvalidSolver);
         }
@@ -400,10 +419,30 @@ impl ClothSettings {
         self
     }
 
-    /// The same settings with another integrator and substep count.
+    /// The same settings with another integrator and substep count (the
+    /// least count, when [`adaptive`](Self::adaptive) substeps are on and
+    /// the integrator is explicit).
+    ///
+    /// ```
+    /// use bevy_cloth::prelude::*;
+    /// // RK4 with as many substeps as the cloth's stiffest mode needs.
+    /// let rk4 = ClothSettings::default().with_integrator(Integrator::Rk4, 1);
+    /// // Exactly 40 substeps of symplectic Euler, whatever the cloth.
+    /// let fixed = ClothSettings::default()
+    ///     .with_integrator(Integrator::SymplecticEuler, 40)
+    ///     .without_adaptive();
+    /// assert!(rk4.adaptive.is_some() && fixed.adaptive.is_none());
+    /// ```
     pub fn with_integrator(mut self, integrator: Integrator, substeps: u32) -> Self {
         self.integrator = integrator;
         self.substeps = substeps;
+        self
+    }
+
+    /// The same settings with adaptive substeps off: an explicit integrator
+    /// runs exactly [`substeps`](Self::substeps), stable or not.
+    pub fn without_adaptive(mut self) -> Self {
+        self.adaptive = None;
         self
     }
 }

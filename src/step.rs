@@ -46,6 +46,16 @@ pub struct ClothScratch {
     pub(crate) warned_invalid: bool,
     /// The divergence guard's state.
     pub(crate) guard: crate::guard::GuardState,
+    /// A divergence to report at the end of the step: reason, substeps,
+    /// integrator, recovered.
+    pub(crate) pending: Option<(
+        crate::guard::Divergence,
+        u32,
+        crate::settings::Integrator,
+        bool,
+    )>,
+    /// Whether a divergence of this cloth was logged already.
+    pub(crate) warned_diverged: bool,
     /// What the step measured that its writeback reuses.
     pub(crate) measured: crate::systems::Measured,
 }

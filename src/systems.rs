@@ -22,9 +22,8 @@ use crate::collision::{
     ClothCollision, ClothCollisionStats, ClothSelfCollision, ColliderScene, SelfCollisionScratch,
     bounds, resolve_substep,
 };
-use crate::guard::{ClothDiverged, Divergence, Fallback, check_measured, grew};
-use crate::settings::MAX_SUBSTEPS;
-use crate::step::{ClothForces, ClothScratch, ClothStats, Substep, step_cloth_with};
+use crate::guard::{ClothDiverged, step_guarded};
+use crate::step::{ClothForces, ClothScratch, ClothStats, Substep};
 
 /// Checks what the step indexes so that user edits can never make it panic:
 /// equal array lengths, and every link inside the particle range.
@@ -183,116 +182,20 @@ pub(crate) fn step_cloths(
             },
         );
         let started = Instant::now();
-        // The guard keeps the state before the step and, if the step blows
-        // up, redoes it with more substeps or the fallback integrator.
-        let guard = settings.guard;
-        let mut effective = settings.clone();
-        if let Some((substeps, integrator)) = scratch.guard.boost {
-            effective.substeps = substeps;
-            effective.integrator = integrator;
-        }
-        if guard.enabled {
-            scratch.guard.good_x.clone_from(&item.particles.positions);
-            scratch.guard.good_v.clone_from(&item.particles.velocities);
-        }
-        let mut tripped = None;
-        let mut hook = hook;
-        for attempt in 0..=guard.retries {
-            let used = step_cloth_with(
-                &mut item.particles,
-                connections,
-                &effective,
-                &item.forces.0,
-                &mut scratch.buffers,
-                dt,
-                hook.as_mut(),
-            );
-            effective.substeps = used;
-            let (reason, strain) = if guard.enabled {
-                check_measured(&item.particles, connections, &guard, helper)
-            } else {
-                (None, None)
-            };
-            let Some(reason) = reason.filter(|&r| grew(r, &scratch.guard, connections, &guard))
-            else {
-                scratch.measured.strain = strain.map(|s| (now, s));
-                if let Some(reason) = tripped {
-                    scratch.guard.pending =
-                        Some((reason, effective.substeps, effective.integrator, true));
-                } else {
-                    let adaptive = settings.adaptive.is_some();
-                    scratch
-                        .guard
-                        .relax(settings.integrator, settings.substeps, adaptive);
-                }
-                break;
-            };
-            if tripped.is_none() {
-                scratch.guard.trips = scratch.guard.trips.saturating_add(1);
-            }
-            let first = *tripped.get_or_insert(reason);
-            if attempt == guard.retries && reason != Divergence::NonFinite {
-                // Every retry tripped on a finite state: violent motion (the
-                // recoil of a cloth a grab over-stretched, say) rather than a
-                // blow-up. Keep it with every speed clamped to the bound:
-                // restoring would trip the same way next step and freeze the
-                // cloth.
-                let max_speed = guard.max_speed;
-                for v in &mut item.particles.velocities {
-                    *v = v.clamp_length_max(max_speed);
-                }
-                scratch.guard.pending =
-                    Some((first, effective.substeps, effective.integrator, false));
-                break;
-            }
-            if attempt == guard.retries {
-                // Every retry was non-finite. Free particles go back to the
-                // last good state at rest, so the next step cannot blow up
-                // the same way; pinned ones keep their prescribed motion if
-                // finite.
-                let p = &mut *item.particles;
-                let good = scratch.guard.good_x.iter().zip(&scratch.guard.good_v);
-                for (((x, v), &w), (gx, gv)) in p
-                    .positions
-                    .iter_mut()
-                    .zip(&mut p.velocities)
-                    .zip(&p.inverse_masses)
-                    .zip(good)
-                {
-                    if w > 0.0 {
-                        (*x, *v) = (*gx, Vec3::ZERO);
-                    } else if !(x.is_finite() && v.is_finite()) {
-                        (*x, *v) = (*gx, *gv);
-                    }
-                }
-                scratch.buffers.implicit.reset_history();
-                scratch.guard.pending =
-                    Some((first, effective.substeps, effective.integrator, false));
-                break;
-            }
-            item.particles.positions.clone_from(&scratch.guard.good_x);
-            item.particles.velocities.clone_from(&scratch.guard.good_v);
-            scratch.buffers.implicit.reset_history();
-            match guard.fallback {
-                Fallback::Integrator(i) if effective.integrator != i => effective.integrator = i,
-                _ => {
-                    // The substeps before any boost: configured, or adaptive.
-                    let base = crate::adaptive::substeps_for(
-                        settings,
-                        connections,
-                        &item.particles,
-                        dt,
-                        &mut scratch.buffers.mode_sums,
-                    );
-                    let cap = base
-                        .saturating_mul(guard.max_boost.max(1))
-                        .min(MAX_SUBSTEPS);
-                    effective.substeps = (effective.substeps * 2).min(cap);
-                }
-            }
-            scratch.guard.boost = Some((effective.substeps, effective.integrator));
-            scratch.guard.clean = 0;
-        }
+        let step = step_guarded(
+            &mut item.particles,
+            connections,
+            settings,
+            &item.forces.0,
+            &mut scratch.buffers,
+            &mut scratch.guard,
+            dt,
+            hook,
+            helper,
+        );
+        scratch.measured.strain = step.strain.map(|s| (now, s));
+        scratch.pending = step.report;
+        let effective = step;
         item.stats.substeps = effective.substeps;
         item.stats.integrator = effective.integrator;
         item.stats.step_micros = started.elapsed().as_secs_f32() * 1e6;
@@ -360,19 +263,19 @@ fn report_divergence(
     scratch: &mut ClothScratch,
     out: &mut MessageWriter<ClothDiverged>,
 ) {
-    let Some((reason, substeps, integrator, recovered)) = scratch.guard.pending.take() else {
+    let Some((reason, substeps, integrator, recovered)) = scratch.pending.take() else {
         return;
     };
-    if !scratch.guard.warned {
+    if !scratch.warned_diverged {
         warn!(
             "cloth {entity} diverged ({reason:?}); now {substeps} substeps of {integrator:?}{}",
             if recovered {
                 ""
             } else {
-                ", still unstable: kept at its last good state"
+                ", not recovered: speeds clamped or held for this step"
             }
         );
-        scratch.guard.warned = true;
+        scratch.warned_diverged = true;
     }
     out.write(ClothDiverged {
         cloth: entity,

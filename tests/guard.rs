@@ -15,11 +15,9 @@ use common::{app, hanging, particles};
 /// Cotton under symplectic Euler with 4 substeps at 60 Hz: a 4.2 ms step,
 /// far above its 0.55 ms bound (MODEL.md §6.4).
 fn too_few_substeps(guard: GuardSettings) -> ClothSettings {
-    ClothSettings {
-        substeps: 4,
-        guard,
-        ..default()
-    }
+    ClothSettings { guard, ..default() }
+        .with_integrator(Integrator::SymplecticEuler, 4)
+        .without_adaptive()
 }
 
 fn run(settings: ClothSettings, steps: usize) -> (App, Entity, Vec<ClothDiverged>) {
@@ -53,9 +51,17 @@ fn without_the_guard_the_cloth_blows_up() {
     assert!(seen.is_empty());
 }
 
+/// The guard with substeps only: no fallback integrator.
+fn doubling_only() -> GuardSettings {
+    GuardSettings {
+        fallback: Fallback::MoreSubsteps,
+        ..default()
+    }
+}
+
 #[test]
 fn the_guard_restores_doubles_the_substeps_and_says_so() {
-    let (app, cloth, seen) = run(too_few_substeps(GuardSettings::default()), 120);
+    let (app, cloth, seen) = run(too_few_substeps(doubling_only()), 120);
     let p = particles(&app, cloth);
     assert!(p.is_finite());
     let stats = app.world().get::<ClothStats>(cloth).unwrap();
@@ -71,6 +77,18 @@ fn the_guard_restores_doubles_the_substeps_and_says_so() {
     assert!(stats.max_strain < 0.05, "{stats:?}");
     // It hangs below its pins like a healthy cloth.
     assert!(p.positions.iter().all(|x| x.y <= p.positions[0].y + 1e-3));
+}
+
+#[test]
+fn by_default_the_last_retry_is_backward_euler() {
+    // 8 and 16 substeps are still too few (40 are needed): the third retry
+    // steps with backward Euler, which holds.
+    let (app, cloth, seen) = run(too_few_substeps(GuardSettings::default()), 60);
+    assert!(particles(&app, cloth).is_finite());
+    let first = seen.first().expect("a ClothDiverged message");
+    assert_eq!(first.integrator, Integrator::BackwardEuler);
+    assert!(first.recovered, "{first:?}");
+    assert!(app.world().get::<ClothStats>(cloth).unwrap().max_strain < 0.05);
 }
 
 #[test]
@@ -109,10 +127,14 @@ fn scene_hash_with(steps: usize, parallel: Parallelism) -> u64 {
         ClothCollider::sphere(0.2),
         Transform::from_xyz(0.1, 1.2, 0.1),
     ));
+    // The first cloth steps with symplectic Euler, whose force evaluation
+    // `parallel` picks.
     let settings = ClothSettings {
         parallel,
         ..default()
-    };
+    }
+    .with_integrator(Integrator::SymplecticEuler, 40)
+    .without_adaptive();
     let a = app.world_mut().spawn((common::sheet(12), settings)).id();
     let b = app
         .world_mut()
@@ -161,7 +183,7 @@ fn a_boost_is_probed_again_later_and_kept_while_it_is_needed() {
     // guard trips again and boosts back, and it waits twice as long before
     // the next try, so trips grow rarer rather than recurring every second.
     let mut app = app();
-    let settings = too_few_substeps(GuardSettings::default());
+    let settings = too_few_substeps(doubling_only());
     let cloth = app.world_mut().spawn((hanging(15), settings)).id();
     let mut trips = Vec::new();
     for frame in 0..500 {

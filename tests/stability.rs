@@ -14,7 +14,9 @@ const SYMPLECTIC_DT: f32 = 4e-4;
 const RK4_DT: f32 = 6e-4;
 
 fn cotton(integrator: Integrator) -> ClothSettings {
-    ClothSettings::default().with_integrator(integrator, 1)
+    ClothSettings::default()
+        .with_integrator(integrator, 1)
+        .without_adaptive()
 }
 
 #[test]

@@ -76,13 +76,20 @@ struct Local {
 
 fn shape_contact(shape: &Shape, p0: Vec3, p1: Vec3, thickness: f32) -> Option<Local> {
     let t = sweep(shape, p0, p1, thickness)?;
-    if t == 0.0 && shape.distance(p1).0 >= thickness {
+    let (d0, n0) = shape.distance(p0);
+    if t == 0.0 && shape.distance(p1).0 >= thickness && (p1 - p0).dot(n0) >= 0.0 {
         return None; // started in contact and leaves
     }
     let point = p0.lerp(p1, t);
-    // Starting inside, the end's normal says best where "out" is.
-    let normal = if t == 0.0 {
+    // A particle that starts touching (within the thickness) is pushed back
+    // out on the side it touched, even when the collider's motion carries
+    // its end past the middle or out the far side (a fast ball, one step per
+    // frame); one that started deep inside goes out where its end is nearest
+    // the surface.
+    let normal = if t == 0.0 && d0 < 0.0 {
         shape.distance(p1).1
+    } else if t == 0.0 {
+        n0
     } else {
         shape.distance(point).1
     };

@@ -71,6 +71,11 @@ pub struct ImplicitBuffers {
     expected_x: Vec<Vec3>,
     /// Step length of the stored BDF2 history, if there is one.
     history: Option<f32>,
+    /// The last step's implicit equation, `x₁ = a + γv₁` and
+    /// `M(v₁ − b) = γF(x₁, v₁)`: `b` (m/s) per particle and `γ` (s), for
+    /// [`newton_correction`].
+    target_v: Vec<Vec3>,
+    gamma: f32,
     /// Whether `dv` holds the last step's solution, the next solve's
     /// starting guess (a warm start).
     warm: bool,
@@ -110,6 +115,7 @@ impl ImplicitBuffers {
             &mut self.prev_x,
             &mut self.prev_v,
             &mut self.expected_x,
+            &mut self.target_v,
         ] {
             buf.resize(n, Vec3::ZERO);
         }
@@ -375,6 +381,8 @@ pub fn backward_euler(
     buffers.resize(x.len());
     buffers.prev_x.copy_from_slice(x);
     buffers.prev_v.copy_from_slice(v);
+    buffers.target_v.copy_from_slice(v);
+    buffers.gamma = h;
     backward_euler_step(dynamics, x, v, h, buffers);
     buffers.history = Some(h);
     buffers.expected_x.copy_from_slice(x);
@@ -430,12 +438,24 @@ pub fn bdf2(
         return;
     }
     let (alpha, beta) = (2.0 / 3.0 * h, 4.0 / 9.0 * h * h);
+    // A pinned particle moves by exactly h·v (its prescribed motion), not
+    // by the BDF2 extrapolation of its history: a grab that let go of it
+    // leaves it where it is.
+    let pinned = |i: usize| dynamics.inverse_masses.get(i) == Some(&0.0);
     for i in 0..x.len() {
-        buffers.w_term[i] = (x[i] - buffers.prev_x[i]) / 3.0 + 2.0 / 3.0 * h * v[i];
+        buffers.w_term[i] = if pinned(i) {
+            h * v[i]
+        } else {
+            (x[i] - buffers.prev_x[i]) / 3.0 + 2.0 / 3.0 * h * v[i]
+        };
     }
     let w_term = std::mem::take(&mut buffers.w_term);
     linearise(dynamics, (x, v, &w_term), alpha, beta, buffers);
     buffers.w_term = w_term;
+    for ((target, &vn), &vp) in buffers.target_v.iter_mut().zip(&*v).zip(&buffers.prev_v) {
+        *target = vn + (vn - vp) / 3.0;
+    }
+    buffers.gamma = 2.0 / 3.0 * h;
     for (i, &w) in dynamics.inverse_masses.iter().enumerate() {
         let inertia = if w == 0.0 {
             Vec3::ZERO
@@ -452,11 +472,59 @@ pub fn bdf2(
         let v1 = vn + buffers.dv.get(i);
         // 4⁄3xₙ − ⅓xₙ₋₁ + ⅔hv written as xₙ plus a small increment, so f32
         // rounds once per step instead of cancelling large terms.
-        let x1 = xn + ((xn - buffers.prev_x[i]) / 3.0 + 2.0 / 3.0 * h * v1);
+        let x1 = if pinned(i) {
+            xn + h * v1
+        } else {
+            xn + ((xn - buffers.prev_x[i]) / 3.0 + 2.0 / 3.0 * h * v1)
+        };
         buffers.prev_x[i] = xn;
         buffers.prev_v[i] = vn;
         x[i] = x1;
         v[i] = v1;
+    }
+    buffers.expected_x.copy_from_slice(x);
+}
+
+/// One more Newton iteration of the last implicit step, at the state
+/// `(x, v)` it left (m, m/s): with that step written as `x₁ = a + γv₁` and
+/// `M(v₁ − b) = γF(x₁, v₁)` (backward Euler: `b = v₀`, `γ = h`; BDF2:
+/// `b = ⁴⁄₃vₙ − ⅓vₙ₋₁`, `γ = ⅔h`), solves
+/// `(M − γD − γ²K(x₁)) δ = γF(x₁, v₁) − M(v₁ − b)` and moves
+/// `v₁ += δ`, `x₁ += γδ`.
+///
+/// The step itself linearises the forces at its start. When it moves the
+/// cloth far from there (a strong gust on a slack sheet, whose linearised
+/// stiffness across its plane is zero), the forces at the end differ from
+/// the linearisation and the links overshoot; an iteration at the end
+/// brings them back. Call it only right after [`backward_euler`] or
+/// [`bdf2`] with the same `dynamics`.
+pub fn newton_correction(
+    dynamics: &Dynamics,
+    x: &mut [Vec3],
+    v: &mut [Vec3],
+    buffers: &mut ImplicitBuffers,
+) {
+    let gamma = buffers.gamma;
+    if x.len() != buffers.target_v.len() || gamma.is_nan() || gamma <= 0.0 {
+        return;
+    }
+    linearise(dynamics, (x, v, v), gamma, gamma * gamma, buffers);
+    for (i, &w) in dynamics.inverse_masses.iter().enumerate() {
+        let inertia = if w == 0.0 {
+            Vec3::ZERO
+        } else {
+            (v[i] - buffers.target_v[i]) / w
+        };
+        buffers.rhs.set(i, gamma * buffers.force[i] - inertia);
+    }
+    buffers.rhs.filter(&buffers.op.free);
+    buffers.warm = false;
+    solve(dynamics, buffers);
+    buffers.warm = false;
+    for i in 0..x.len() {
+        let delta = buffers.dv.get(i);
+        v[i] += delta;
+        x[i] += gamma * delta;
     }
     buffers.expected_x.copy_from_slice(x);
 }
