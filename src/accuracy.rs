@@ -21,6 +21,7 @@ use bevy::math::{Quat, Vec3};
 
 use crate::cloth::{ClothBuilder, ClothBundle, GridCorner};
 use crate::integrate::StepBuffers;
+use crate::material::ClothMaterial;
 use crate::settings::{ClothModel, ClothSettings, Integrator};
 use crate::step::{ClothStats, step_cloth};
 
@@ -56,6 +57,7 @@ impl Preset {
             let k = 3.6;
             s.damping = 9.6;
             s.choi_ko.stiffness = k;
+            s.choi_ko.shear_stiffness = k;
             s.choi_ko.buckling_slope = k;
             s.choi_ko.pair_damping = 0.0;
             for (spring, ks) in [
@@ -94,6 +96,7 @@ pub fn scene(grid: u32) -> ClothBundle {
     let grid = grid.clamp(3, 1024);
     ClothBuilder::new(grid, grid)
         .size(1.0, 1.0)
+        .material(ClothMaterial::Raw)
         .mass_per_area(0.15)
         .position(Vec3::new(0.0, 1.5, 0.0))
         .rotation(Quat::from_rotation_x(FRAC_PI_2))

@@ -155,13 +155,15 @@ pub fn stiffest_mode(
     match settings.model {
         ClothModel::ChoiKo => {
             let p = &settings.choi_ko;
-            let (k, kd) = (p.stiffness, p.pair_damping);
-            damped(k, kd);
-            for links in [
-                &connections.structural,
-                &connections.shear,
-                &connections.crease,
+            let kd = p.pair_damping;
+            for (links, k) in [
+                (&connections.structural, p.stiffness),
+                (&connections.shear, p.shear_stiffness),
+                (&connections.crease, p.stiffness),
             ] {
+                if !links.is_empty() {
+                    damped(k, kd);
+                }
                 for l in links.iter() {
                     let taut = length(x, l).filter(|&len| len > l.rest_length);
                     let u = taut.map_or(0.0, |len| geometric(l, len, k));

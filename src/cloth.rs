@@ -5,6 +5,7 @@ use bevy::prelude::{Bundle, Component, Reflect, ReflectComponent, Transform};
 
 use crate::connections::ClothConnections;
 use crate::interaction::ClothGrabs;
+use crate::material::ClothMaterial;
 use crate::particles::ClothParticles;
 use crate::settings::ClothSettings;
 use crate::step::{ClothForces, ClothScratch, ClothStats};
@@ -116,7 +117,14 @@ pub const MAX_PARTICLES: u32 = 1 << 20;
 /// identity unless you want the rendered mesh offset from the simulation.
 #[derive(Component, Clone, Debug, PartialEq, Reflect)]
 #[reflect(Component)]
-#[require(Transform, ClothForces, ClothScratch, ClothStats, ClothGrabs)]
+#[require(
+    Transform,
+    ClothForces,
+    ClothScratch,
+    ClothStats,
+    ClothGrabs,
+    ClothMaterial
+)]
 pub struct Cloth {
     /// Particles per row.
     pub cols: u32,
@@ -180,6 +188,18 @@ impl Cloth {
     pub fn triangles(&self) -> Vec<[u32; 3]> {
         self.triangle_iter().collect()
     }
+
+    /// The rest spacing of the particles in m: the geometric mean of the
+    /// spacing along the columns and along the rows.
+    pub fn spacing(&self) -> f32 {
+        let along = |len: f32, n: u32| len / (n.max(2) - 1) as f32;
+        (along(self.size.x, self.cols) * along(self.size.y, self.rows)).sqrt()
+    }
+
+    /// The rest area in m².
+    pub fn area(&self) -> f32 {
+        self.size.x * self.size.y
+    }
 }
 
 /// A corner of the grid: top = row 0, left = column 0.
@@ -232,6 +252,8 @@ pub struct ClothBundle {
     pub particles: ClothParticles,
     /// Type 1 / Type 2 (or Lander) connections.
     pub connections: ClothConnections,
+    /// What it is made of.
+    pub material: ClothMaterial,
 }
 
 /// Builds a validated rectangular cloth.
@@ -243,8 +265,10 @@ pub struct ClothBundle {
 /// needs neither; `rotation(Quat::from_rotation_x(FRAC_PI_2))` stands it up
 /// with row 0 on top (a curtain).
 ///
-/// Mass defaults to 0.15 kg/m² (mid-weight cotton) lumped by area: corner,
-/// edge and interior particles get ¼, ½ and 1 share (MODEL.md §1).
+/// The material defaults to [`ClothMaterial::COTTON`]; the mass to the
+/// material's density (0.15 kg/m² for cotton and for raw constants), lumped
+/// by area: corner, edge and interior particles get ¼, ½ and 1 share
+/// (MODEL.md §1).
 ///
 /// ```
 /// use bevy_cloth::prelude::*;
@@ -260,7 +284,8 @@ pub struct ClothBuilder {
     cols: u32,
     rows: u32,
     size: Vec2,
-    mass: Mass,
+    mass: Option<Mass>,
+    material: ClothMaterial,
     uniform_mass: bool,
     position: Vec3,
     rotation: Quat,
@@ -274,6 +299,7 @@ impl std::fmt::Debug for ClothBuilder {
             .field("rows", &self.rows)
             .field("size", &self.size)
             .field("mass", &self.mass)
+            .field("material", &self.material)
             .field("uniform_mass", &self.uniform_mass)
             .field("position", &self.position)
             .field("rotation", &self.rotation)
@@ -283,13 +309,14 @@ impl std::fmt::Debug for ClothBuilder {
 }
 
 impl ClothBuilder {
-    /// A `cols × rows` grid, 1 m × 1 m, 0.15 kg/m², at the origin.
+    /// A `cols × rows` grid of cotton, 1 m × 1 m, at the origin.
     pub fn new(cols: u32, rows: u32) -> Self {
         Self {
             cols,
             rows,
             size: Vec2::ONE,
-            mass: Mass::PerArea(0.15),
+            mass: None,
+            material: ClothMaterial::COTTON,
             uniform_mass: false,
             position: Vec3::ZERO,
             rotation: Quat::IDENTITY,
@@ -303,15 +330,23 @@ impl ClothBuilder {
         self
     }
 
-    /// Areal density in kg/m².
-    pub fn mass_per_area(mut self, kg_per_m2: f32) -> Self {
-        self.mass = Mass::PerArea(kg_per_m2);
+    /// What the cloth is made of ([`ClothMaterial`]); its density gives
+    /// the masses unless [`mass_per_area`](Self::mass_per_area) or
+    /// [`total_mass`](Self::total_mass) says otherwise.
+    pub fn material(mut self, material: ClothMaterial) -> Self {
+        self.material = material;
         self
     }
 
-    /// Total mass in kg.
+    /// Areal density in kg/m² (instead of the material's).
+    pub fn mass_per_area(mut self, kg_per_m2: f32) -> Self {
+        self.mass = Some(Mass::PerArea(kg_per_m2));
+        self
+    }
+
+    /// Total mass in kg (instead of the material's density).
     pub fn total_mass(mut self, kg: f32) -> Self {
-        self.mass = Mass::Total(kg);
+        self.mass = Some(Mass::Total(kg));
         self
     }
 
@@ -381,7 +416,11 @@ impl ClothBuilder {
                 height: size.y,
             });
         }
-        let (Mass::PerArea(m) | Mass::Total(m)) = self.mass;
+        self.material.validate()?;
+        let mass = self.mass.unwrap_or(Mass::PerArea(
+            self.material.fabric().map_or(0.15, |f| f.density),
+        ));
+        let (Mass::PerArea(m) | Mass::Total(m)) = mass;
         if !(m.is_finite() && m > 0.0) {
             return Err(ClothError::InvalidMass(m));
         }
@@ -393,7 +432,7 @@ impl ClothBuilder {
 
         let cloth = Cloth { cols, rows, size };
         let count = cloth.len();
-        let total = match self.mass {
+        let total = match mass {
             Mass::PerArea(rho) => rho * size.x * size.y,
             Mass::Total(total) => total,
         };
@@ -427,6 +466,7 @@ impl ClothBuilder {
             cloth,
             particles,
             connections,
+            material: self.material,
         })
     }
 

@@ -25,7 +25,10 @@
 //!    to the start of the step at rest (pinned ones keep their prescribed
 //!    motion) and the fallback integrator stays in force, so the next step
 //!    starts from a finite state with an integrator stable at any step: a
-//!    cloth is held back for one step at most.
+//!    cloth is held back for one step at most. A cloth whose worst link its
+//!    contacts hold over-stretched and unmoving for [`SNAGGED_STEPS`] steps
+//!    (caught on a thin collider, the link through it) takes one step
+//!    without contacts.
 //!
 //! The stronger setting stays in force for that cloth for a while (see
 //! [`GuardState::relax`] and [`ClothStats`](crate::ClothStats)), a
@@ -352,6 +355,13 @@ pub fn step_guarded<H: ContactHook>(
     }
     state.good_x.clone_from(&particles.positions);
     state.good_v.clone_from(&particles.velocities);
+    if state.snagged >= SNAGGED_STEPS {
+        // Held over-stretched and still by its contacts: the cloth is caught
+        // on a collider (a link through a thin table top after a violent
+        // yank). One step without contacts lets it go.
+        hook = None;
+        state.snagged = 0;
+    }
     let mut limits = None;
     let mut tripped = None;
     let base = settings.substeps.max(1);
@@ -404,6 +414,12 @@ pub fn step_guarded<H: ContactHook>(
                     None
                 }
             };
+            // Caught: over the bound, and the worst link neither stretches
+            // nor relaxes while contacts act on the cloth.
+            let held = hook.is_some()
+                && matches!((strain, state.last_strain), (Some(now), Some(last))
+                    if now > guard.max_strain && (now - last).abs() <= SNAG_CHANGE * now);
+            state.snagged = if held { state.snagged + 1 } else { 0 };
             state.last_strain = strain;
             return GuardedStep {
                 substeps: effective.substeps,
@@ -626,6 +642,9 @@ pub struct GuardState {
     pub(crate) good_v: Vec<Vec3>,
     /// The Type 1 strain the last clean step left (dimensionless).
     last_strain: Option<f32>,
+    /// Steps the cloth has kept the same strain over the bound, with
+    /// colliders near (see [`SNAGGED_STEPS`]).
+    snagged: u32,
     /// The state before an extra Newton iteration, to undo it.
     newton_x: Vec<Vec3>,
     newton_v: Vec<Vec3>,
@@ -636,6 +655,13 @@ pub struct GuardState {
     /// Fixed steps that tripped the guard so far (saturating).
     pub(crate) trips: u32,
 }
+
+/// Fixed steps a cloth may keep the same strain over the bound while it
+/// has colliders near, before a step without contacts lets it off.
+pub const SNAGGED_STEPS: u32 = 10;
+
+/// Largest relative change of the worst strain in a step of a snagged cloth.
+const SNAG_CHANGE: f32 = 1e-4;
 
 /// Clean fixed steps after which an adaptive cloth's boost halves.
 pub const RELAX_AFTER: u32 = 10;

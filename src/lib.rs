@@ -70,6 +70,7 @@ pub mod diagnostics;
 pub mod guard;
 pub mod integrate;
 pub mod interaction;
+pub mod material;
 pub mod mesh;
 pub mod model;
 #[cfg(feature = "egui")]
@@ -93,6 +94,7 @@ use bevy::ecs::schedule::common_conditions::any_with_component;
 pub use crate::anchor::{Anchor, ClothAnchors};
 pub use crate::cloth::{Cloth, ClothBuilder, ClothBundle, ClothError, GridCorner, GridEdge};
 pub use crate::connections::{ClothConnections, Link};
+pub use crate::material::{ClothMaterial, Fabric};
 pub use crate::particles::ClothParticles;
 pub use crate::schedule::ClothSystems;
 pub use crate::settings::{
@@ -109,8 +111,8 @@ pub mod prelude {
     pub use crate::wind::ClothWind;
     pub use crate::{
         ClothAnchors, ClothBuilder, ClothBundle, ClothConnections, ClothDefaults, ClothError,
-        ClothForces, ClothModel, ClothParticles, ClothPlugin, ClothSettings, ClothStats,
-        ClothSystems, GridCorner, GridEdge, Integrator, cloth::Cloth,
+        ClothForces, ClothMaterial, ClothModel, ClothParticles, ClothPlugin, ClothSettings,
+        ClothStats, ClothSystems, Fabric, GridCorner, GridEdge, Integrator, cloth::Cloth,
     };
 }
 
@@ -144,6 +146,7 @@ impl Plugin for ClothPlugin {
             .register_type::<Cloth>()
             .register_type::<ClothParticles>()
             .register_type::<ClothConnections>()
+            .register_type::<ClothMaterial>()
             .register_type::<ClothAnchors>()
             .register_type::<ClothForces>()
             .register_type::<ClothStats>()
@@ -163,8 +166,11 @@ impl Plugin for ClothPlugin {
                 (
                     // A system with nothing to do is skipped by its run
                     // condition, which costs no hand-off to a pool thread.
-                    anchor::follow_anchors
-                        .run_if(any_with_component::<ClothAnchors>)
+                    (
+                        material::apply_density.run_if(material::materials_changed),
+                        anchor::follow_anchors.run_if(any_with_component::<ClothAnchors>),
+                    )
+                        .chain()
                         .in_set(Prepare),
                     (
                         interaction::apply_grabs.run_if(interaction::grabs_active),

@@ -169,12 +169,19 @@ impl Default for ImplicitParams {
     }
 }
 
-/// Choi–Ko material constants (MODEL.md §11 defaults: cotton, 1 m, 15×15).
+/// Choi–Ko constants per link (MODEL.md §11 defaults: cotton, 1 m, 15×15).
+///
+/// These are the raw per-link constants; a cloth whose
+/// [`ClothMaterial`](crate::material::ClothMaterial) is a fabric gets them
+/// from the fabric and its spacing instead.
 #[derive(Clone, Copy, Debug, PartialEq, Reflect)]
 #[reflect(Default)]
 pub struct ChoiKoParams {
-    /// Type 1 spring constant `k` in N/m (all Type 1 links).
+    /// Spring constant `k` in N/m of the Type 1 links along the grid
+    /// (structural) and of crease springs.
     pub stiffness: f32,
+    /// Spring constant in N/m of the diagonal Type 1 links (shear).
+    pub shear_stiffness: f32,
     /// Flexural rigidity `k_b` of the Type 2 links in N·m².
     pub bending_rigidity: f32,
     /// Slope `c_b` of the linear pre-buckling ramp in N/m (seed eq. 4; the
@@ -189,6 +196,7 @@ impl Default for ChoiKoParams {
     fn default() -> Self {
         Self {
             stiffness: 1000.0,
+            shear_stiffness: 1000.0,
             bending_rigidity: 5e-7,
             buckling_slope: 1000.0,
             pair_damping: 0.05,
@@ -395,6 +403,7 @@ impl ClothSettings {
         }
         let ck = &self.choi_ko;
         positive("choi_ko.stiffness", ck.stiffness)?;
+        positive("choi_ko.shear_stiffness", ck.shear_stiffness)?;
         positive("choi_ko.bending_rigidity", ck.bending_rigidity)?;
         positive("choi_ko.buckling_slope", ck.buckling_slope)?;
         non_negative("choi_ko.pair_damping", ck.pair_damping)?;

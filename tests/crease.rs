@@ -11,8 +11,11 @@ use bevy_cloth::prelude::*;
 use common::{app, particles};
 
 /// A flat, horizontal 15×15, 1 m sheet (rest `uv` = its `x`, `z` + ½).
+/// A 1 m, 15×15 sheet with the raw constants of the app's settings (the
+/// crease figures are for MODEL.md §11's cotton, stiffened in bending).
 fn sheet() -> ClothBundle {
     ClothBuilder::new(15, 15)
+        .material(ClothMaterial::Raw)
         .size(1.0, 1.0)
         .position(Vec3::new(0.0, 1.0, 0.0))
         .build()

@@ -96,6 +96,7 @@ fn explicit_euler_pays_for_its_safe_step_in_substeps() {
     let substeps = |i: Integrator, scale: f32| {
         let mut s = safe(i);
         s.choi_ko.stiffness *= scale;
+        s.choi_ko.shear_stiffness *= scale;
         s.choi_ko.buckling_slope *= scale;
         let mode = bevy_cloth::adaptive::stiffest_mode(
             &s,
@@ -197,6 +198,7 @@ fn stiffness_x100_at_runtime() {
         {
             let mut s = app.world_mut().get_mut::<ClothSettings>(e).unwrap();
             s.choi_ko.stiffness *= 100.0;
+            s.choi_ko.shear_stiffness *= 100.0;
             s.choi_ko.buckling_slope *= 100.0;
         }
         run(&mut app, e, 2.0, "stiffen: after");
@@ -257,6 +259,11 @@ fn stiffness_x100_without_adaptive_substeps_blows_up() {
         .unwrap()
         .choi_ko
         .stiffness *= 100.0;
+    app.world_mut()
+        .get_mut::<ClothSettings>(e)
+        .unwrap()
+        .choi_ko
+        .shear_stiffness *= 100.0;
     for _ in 0..30 {
         app.update();
     }

@@ -298,7 +298,8 @@ fn linearise(
         SlackStiffness::Auto => {
             // β = h² (BE) or 4⁄9h² (BDF2): resolved when h²·k/m_min < 1.
             let lightest = dynamics.inverse_masses.iter().copied().fold(0.0, f32::max);
-            beta * s.choi_ko.stiffness * lightest > 1.0
+            let k = s.choi_ko.stiffness.max(s.choi_ko.shear_stiffness);
+            beta * k * lightest > 1.0
         }
     };
     assemble_streamed(

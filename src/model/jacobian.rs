@@ -162,14 +162,14 @@ pub fn assemble(
     match settings.model {
         ClothModel::ChoiKo => {
             let p = &settings.choi_ko;
-            for links in [
-                &connections.structural,
-                &connections.shear,
-                &connections.crease,
+            for (links, k) in [
+                (&connections.structural, p.stiffness),
+                (&connections.shear, p.shear_stiffness),
+                (&connections.crease, p.stiffness),
             ] {
                 stretch(
                     links,
-                    (p.stiffness, p.pair_damping),
+                    (k, p.pair_damping),
                     (false, full, keep_slack),
                     x,
                     v,

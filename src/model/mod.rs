@@ -114,6 +114,10 @@ fn grid_laws<'a>(
                 k: p.stiffness,
                 kd: p.pair_damping,
             };
+            let shearing = Law::Tension {
+                k: p.shear_stiffness,
+                kd: p.pair_damping,
+            };
             let buckling = Law::Buckling {
                 table: &BUCKLING_TABLE,
                 kb: p.bending_rigidity,
@@ -121,7 +125,7 @@ fn grid_laws<'a>(
             };
             let families = [
                 (structural, tension),
-                (shear, tension),
+                (shear, shearing),
                 (bend, buckling),
                 (bend_diagonal, buckling),
             ];
