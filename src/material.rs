@@ -29,8 +29,8 @@
 //! buckled. Below buckling a Type 2 link is the linear ramp `c_b(ℓ − L)`
 //! (MODEL.md §3.5), which resists a bend of curvature `κ` only from
 //! `κ* ≈ √(288 k_b / (c_b L⁵))` on; with `k_b ∝ h` and `L = 2h` that onset
-//! grows as `1/h²`. On a 1 m cloth of 15×15 cotton it is 0.05 m⁻¹ (a bend
-//! of 20 m radius), on 61×61 about 1 m⁻¹: a fine cloth meets less
+//! grows as `1/h²`. On a 1 m cloth of 15×15 cotton it is 0.02 m⁻¹ (a bend
+//! of 45 m radius), on 61×61 0.4 m⁻¹ (2.5 m radius): a fine cloth meets less
 //! resistance in very gentle bends, such as a short stiff strip held out
 //! flat (a paper cantilever droops further at 61 particles across than at
 //! 15). Drapes, folds and hanging cloth bend far more sharply than that and

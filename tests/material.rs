@@ -47,7 +47,10 @@ fn bottom_edge_with(
 /// The largest distance (m) between the bottom edges of a 15×15 and a
 /// 61×61 cloth of `material`, over 29 points along the edge.
 fn disagreement(material: ClothMaterial) -> f32 {
-    apart(bottom_edge(15, material, 6.0), bottom_edge(61, material, 6.0))
+    apart(
+        bottom_edge(15, material, 6.0),
+        bottom_edge(61, material, 6.0),
+    )
 }
 
 /// The largest distance (m) between two edges over 29 points along them.
@@ -68,7 +71,10 @@ fn a_fabric_hangs_the_same_at_15x15_and_61x61() {
         ("leather", ClothMaterial::LEATHER),
     ] {
         let worst = disagreement(material);
-        eprintln!("{name}: bottom edges of 15×15 and 61×61 within {:.1} mm", 1e3 * worst);
+        eprintln!(
+            "{name}: bottom edges of 15×15 and 61×61 within {:.1} mm",
+            1e3 * worst
+        );
         assert!(worst < 0.02, "{name}: {worst} m");
     }
 }
