@@ -79,7 +79,7 @@ impl Drawing {
 fn napkin() -> ClothBundle {
     ClothBuilder::new(N, N)
         .size(SIZE, SIZE)
-        .mass_per_area(0.08)
+        .material(ClothMaterial::PAPER)
         .position(Vec3::new(0.0, TABLE + 0.02, 0.0))
         .build()
         .expect("a valid cloth")
@@ -103,12 +103,8 @@ fn setup(
         Transform::from_xyz(0.0, TABLE - 0.02, 0.0),
         ClothCollider::cuboid(Vec3::new(0.8, 0.02, 0.6)).with_friction(0.6),
     ));
-    // Paper-like bending keeps the flaps flat so folds take their angle
-    // (see `bevy_cloth::crease`). The light particles (0.2 g) and the crease
-    // springs make this cloth stiff for an explicit step, so BDF2 (Choi &
-    // Ko's integrator) steps it, two substeps per fixed step.
-    let mut settings = ClothSettings::default().with_integrator(Integrator::Bdf2, 2);
-    settings.choi_ko.bending_rigidity = 1e-4;
+    // Paper keeps the flaps flat, so folds take their angle (see
+    // `bevy_cloth::crease`).
     let material = materials.add(StandardMaterial {
         base_color: Color::srgb(0.55, 0.7, 0.95),
         perceptual_roughness: 0.8,
@@ -116,12 +112,7 @@ fn setup(
         cull_mode: None,
         ..default()
     });
-    commands.spawn((
-        napkin(),
-        settings,
-        MeshMaterial3d(material),
-        ClothCreases::default(),
-    ));
+    commands.spawn((napkin(), MeshMaterial3d(material), ClothCreases::default()));
 }
 
 /// The rest coordinates (m) of the particle nearest a world point.

@@ -3,8 +3,9 @@
 //!
 //! `cargo run --release --example hanging`
 //!
-//! Keys: `R` release it flat again, `M` switch Choi–Ko / Lander, `I` switch
-//! symplectic Euler / RK4. Drag to orbit, scroll to zoom.
+//! Keys: `R` release it flat again, `M` switch Choi–Ko / Lander, `I` next
+//! integrator (backward Euler, BDF2, explicit Euler, symplectic Euler, RK4).
+//! Drag to orbit, scroll to zoom.
 
 mod common;
 
@@ -12,7 +13,8 @@ use bevy::prelude::*;
 use bevy_cloth::prelude::*;
 use common::{ExamplePlugin, spawn_stage};
 
-const HELP: &str = "R: release again · M: Choi–Ko / Lander · I: symplectic Euler / RK4 · drag: orbit · scroll: zoom";
+const HELP: &str =
+    "R: release again · M: Choi–Ko / Lander · I: next integrator · drag: orbit · scroll: zoom";
 
 /// Height of the bar the cloth hangs from, m.
 const BAR: f32 = 1.6;
@@ -93,13 +95,13 @@ fn keys(
         };
     }
     if input.just_pressed(KeyCode::KeyI) {
-        // Substeps that keep each integrator inside its stability bound at
-        // 64 Hz (MODEL.md §11: symplectic ≤ 4e-4 s, RK4 ≤ 6e-4 s).
-        let (integrator, substeps) = match defaults.integrator {
-            Integrator::Rk4 => (Integrator::SymplecticEuler, 40),
-            _ => (Integrator::Rk4, 28),
-        };
-        defaults.integrator = integrator;
-        defaults.substeps = substeps;
+        // The next integrator; the explicit ones take as many substeps as
+        // the cloth needs (adaptive substeps, on by default).
+        let all = Integrator::ALL;
+        let next = all
+            .iter()
+            .position(|&i| i == defaults.integrator)
+            .map_or(0, |k| k + 1);
+        defaults.integrator = all[next % all.len()];
     }
 }

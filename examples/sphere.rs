@@ -81,12 +81,6 @@ fn spawn_cloth(commands: &mut Commands, materials: &mut Assets<StandardMaterial>
         .position(HOME + Vec3::Y * (RADIUS + 0.5))
         .build()
         .expect("a valid cloth");
-    // 6 cm spacing: ω_max ≤ √(2·Σk/m) ≈ 6.7e3 s⁻¹ at a corner, so symplectic
-    // Euler needs h < 3e-4 s; 64 substeps at 60 Hz make h = 2.6e-4 s.
-    let settings = ClothSettings {
-        substeps: 64,
-        ..default()
-    };
     let material = materials.add(StandardMaterial {
         base_color: Color::srgb(0.2, 0.45, 0.75),
         perceptual_roughness: 0.9,
@@ -96,7 +90,6 @@ fn spawn_cloth(commands: &mut Commands, materials: &mut Assets<StandardMaterial>
     });
     commands.spawn((
         cloth,
-        settings,
         MeshMaterial3d(material),
         ClothCollision { thickness: 0.008 },
     ));

@@ -135,24 +135,12 @@ fn setup(
 fn spawn_cloth(commands: &mut Commands, fabric: &Handle<StandardMaterial>, height: f32) {
     let cloth = ClothBuilder::new(N, N)
         .size(SIZE, SIZE)
-        .mass_per_area(0.18)
+        .material(ClothMaterial::COTTON)
         .position(Vec3::new(0.0, height, 0.0))
         .build()
         .expect("a valid cloth");
-    // 5 cm spacing makes particles light (0.45 g; 0.11 g at the corners), so
-    // the stiffest mode is faster than on the 15×15 default: Gershgorin gives
-    // ω_max ≤ √(2·Σk/m) ≈ 7.3e3 s⁻¹ at a corner, and symplectic Euler needs
-    // h < 2/ω_max ≈ 2.7e-4 s. 80 substeps at 60 Hz make h = 2.1e-4 s.
-    // Pair damping 0.3 N·s/m (ζ ≈ 30 % on the stiffest links, MODEL.md §4)
-    // keeps the yanked cloth from recoiling past the hand's speed.
-    let mut settings = ClothSettings {
-        substeps: 80,
-        ..default()
-    };
-    settings.choi_ko.pair_damping = 0.3;
     commands.spawn((
         cloth,
-        settings,
         MeshMaterial3d(fabric.clone()),
         ClothCollision { thickness: 0.01 },
     ));

@@ -123,7 +123,8 @@ pub const MAX_PARTICLES: u32 = 1 << 20;
     ClothScratch,
     ClothStats,
     ClothGrabs,
-    ClothMaterial
+    ClothMaterial,
+    crate::mesh::ClothPrevious
 )]
 pub struct Cloth {
     /// Particles per row.

@@ -108,6 +108,7 @@ pub use crate::systems::check_cloth;
 pub mod prelude {
     pub use crate::collision::{ClothCollider, ClothCollision, ClothSelfCollision};
     pub use crate::interaction::{ClothGrabs, GrabMode};
+    pub use crate::mesh::ClothMeshSettings;
     pub use crate::wind::ClothWind;
     pub use crate::{
         ClothAnchors, ClothBuilder, ClothBundle, ClothConnections, ClothDefaults, ClothError,

@@ -10,7 +10,14 @@
 //!   panic.
 //! - Vertex positions are the particles' world positions brought into the
 //!   cloth entity's local space, so any cloth `Transform` renders correctly.
-//! - Only cloths whose particles changed are written: a paused cloth costs
+//! - **Interpolation** ([`ClothMeshSettings::interpolate`], on by default):
+//!   the mesh shows the cloth between its last two fixed steps, at the
+//!   fraction of a step that `Time<Fixed>` has accumulated
+//!   (`overstep_fraction`), so a 144 Hz display does not show a 60 Hz cloth
+//!   stepping. The mesh is one fixed step behind the simulation, as with
+//!   any interpolation. The positions at the start of each step are kept in
+//!   [`ClothPrevious`].
+//! - Only cloths that moved are written: a paused or resting cloth costs
 //!   nothing here. A cloth whose state is not finite keeps its last good
 //!   mesh, so a blow-up never reaches the renderer or picking.
 //! - With no `Assets<Mesh>` (a headless app without asset plugins), none of
@@ -20,10 +27,55 @@ use bevy::asset::{AssetEventSystems, Assets, RenderAssetUsages};
 use bevy::ecs::schedule::SystemSet;
 use bevy::math::{Affine3A, Vec3};
 use bevy::mesh::{Indices, Mesh, Mesh3d, PrimitiveTopology, VertexAttributeValues};
-use bevy::prelude::{Changed, Commands, Entity, GlobalTransform, Query, ResMut, Without};
+use bevy::prelude::{
+    Commands, Component, DetectChanges, Entity, GlobalTransform, Local, Query, Ref, Reflect,
+    ReflectResource, Res, ResMut, Resource, Time, Without,
+};
+use bevy::time::Fixed;
 
 use crate::cloth::Cloth;
 use crate::particles::ClothParticles;
+
+/// How cloth meshes are drawn.
+#[derive(Resource, Clone, Debug, PartialEq, Reflect)]
+#[reflect(Resource)]
+pub struct ClothMeshSettings {
+    /// Whether meshes show the cloth interpolated between its last two
+    /// fixed steps (module docs); off, they show the last step as it is.
+    pub interpolate: bool,
+}
+
+impl Default for ClothMeshSettings {
+    fn default() -> Self {
+        Self { interpolate: true }
+    }
+}
+
+/// The positions (m, world) of a cloth's particles at the start of its
+/// last fixed step, for [`ClothMeshSettings::interpolate`]; written at the
+/// start of every step ([`ClothSystems::Prepare`](crate::ClothSystems::Prepare)).
+#[derive(Component, Clone, Debug, Default)]
+pub struct ClothPrevious {
+    /// Positions in m.
+    pub positions: Vec<Vec3>,
+    /// Whether the last step left every particle where it was, so there is
+    /// nothing to interpolate.
+    pub still: bool,
+}
+
+/// Keeps each cloth's [`ClothPrevious`]: the positions before this step.
+pub(crate) fn remember_positions(
+    _main: crate::schedule::MainThread,
+    mut cloths: Query<(&ClothParticles, &mut ClothPrevious)>,
+) {
+    for (particles, mut previous) in &mut cloths {
+        let previous = &mut *previous;
+        previous.still = previous.positions == particles.positions;
+        if !previous.still {
+            previous.positions.clone_from(&particles.positions);
+        }
+    }
+}
 
 /// The `PostUpdate` sets that keep cloth meshes in step with the simulation.
 #[derive(SystemSet, Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -99,13 +151,14 @@ fn to_local(transform: Option<&GlobalTransform>) -> Option<Affine3A> {
 }
 
 fn local_positions(particles: &ClothParticles, inv: Option<Affine3A>) -> Vec<Vec3> {
+    local_of(&particles.positions, inv)
+}
+
+/// Positions `x` (m, world) in the cloth's local space.
+fn local_of(x: &[Vec3], inv: Option<Affine3A>) -> Vec<Vec3> {
     match inv {
-        Some(inv) => particles
-            .positions
-            .iter()
-            .map(|&p| inv.transform_point3(p))
-            .collect(),
-        None => particles.positions.clone(),
+        Some(inv) => x.iter().map(|&p| inv.transform_point3(p)).collect(),
+        None => x.to_vec(),
     }
 }
 
@@ -138,39 +191,70 @@ pub(crate) fn attach_cloth_meshes(
 }
 
 /// [`ClothMeshSystems::Sync`]: writes positions and normals of every cloth
-/// whose particles changed.
+/// that moved: its particles changed, or it is being interpolated between
+/// two different steps.
 pub(crate) fn sync_cloth_meshes(
     mut meshes: ResMut<Assets<Mesh>>,
-    cloths: Query<
-        (&Cloth, &ClothParticles, &Mesh3d, Option<&GlobalTransform>),
-        Changed<ClothParticles>,
-    >,
+    settings: Option<Res<ClothMeshSettings>>,
+    time: Option<Res<Time<Fixed>>>,
+    mut shown: Local<Vec<Vec3>>,
+    cloths: Query<(
+        &Cloth,
+        Ref<ClothParticles>,
+        Option<&ClothPrevious>,
+        &Mesh3d,
+        Option<&GlobalTransform>,
+    )>,
 ) {
-    for (cloth, particles, mesh3d, transform) in &cloths {
+    let interpolate = settings.is_none_or(|s| s.interpolate);
+    let alpha = time.map_or(1.0, |t| t.overstep_fraction().clamp(0.0, 1.0));
+    for (cloth, particles, previous, mesh3d, transform) in &cloths {
         let n = cloth.len();
+        let between =
+            previous.filter(|p| interpolate && !p.still && p.positions.len() == n && alpha < 1.0);
+        if !particles.is_changed() && between.is_none() {
+            continue;
+        }
         // A non-finite state keeps the last good mesh: NaN vertices would
         // break bounds, culling and picking (Bevy asserts on them).
         if particles.len() != n || cloth.cols < 2 || cloth.rows < 2 || !particles.is_finite() {
             continue;
         }
+        let x: &[Vec3] = match between {
+            Some(previous) => {
+                shown.clear();
+                shown.extend(
+                    previous
+                        .positions
+                        .iter()
+                        .zip(&particles.positions)
+                        .map(|(a, b)| a.lerp(*b, alpha)),
+                );
+                if !shown.iter().all(|x| x.is_finite()) {
+                    continue;
+                }
+                &shown
+            }
+            None => &particles.positions,
+        };
         let Some(mut mesh) = meshes.get_mut(&mesh3d.0) else {
             continue;
         };
         let inv = to_local(transform);
         if vertex_count(&mesh) != Some(n) {
-            *mesh = cloth_mesh(cloth, &local_positions(particles, inv));
+            *mesh = cloth_mesh(cloth, &local_of(x, inv));
             continue;
         }
         if let Ok(VertexAttributeValues::Float32x3(out)) =
             mesh.try_attribute_mut(Mesh::ATTRIBUTE_POSITION)
         {
-            for (o, &p) in out.iter_mut().zip(&particles.positions) {
+            for (o, &p) in out.iter_mut().zip(x) {
                 *o = inv.map_or(p, |inv| inv.transform_point3(p)).to_array();
             }
         }
         match mesh.try_attribute_mut(Mesh::ATTRIBUTE_NORMAL) {
             Ok(VertexAttributeValues::Float32x3(out)) if out.len() == n => {
-                grid_normals(cloth.cols, cloth.rows, &particles.positions, out);
+                grid_normals(cloth.cols, cloth.rows, x, out);
                 if let Some(inv) = inv {
                     for o in out.iter_mut() {
                         let local = inv.transform_vector3(Vec3::from_array(*o));
@@ -178,7 +262,7 @@ pub(crate) fn sync_cloth_meshes(
                     }
                 }
             }
-            _ => *mesh = cloth_mesh(cloth, &local_positions(particles, inv)),
+            _ => *mesh = cloth_mesh(cloth, &local_of(x, inv)),
         }
     }
 }
@@ -190,6 +274,17 @@ pub(crate) fn configure(app: &mut bevy::app::App) {
     use bevy::ecs::query::With;
     use bevy::ecs::schedule::IntoScheduleConfigs;
     use bevy::ecs::schedule::common_conditions::{any_match_filter, resource_exists};
+    app.init_resource::<ClothMeshSettings>()
+        .register_type::<ClothMeshSettings>()
+        .add_systems(
+            bevy::app::FixedUpdate,
+            // Outside the cloth sets, so that it runs while they are paused
+            // too: a paused cloth is still, not interpolated.
+            remember_positions
+                .before(crate::ClothSystems::Prepare)
+                .run_if(resource_exists::<Assets<Mesh>>)
+                .run_if(|s: Res<ClothMeshSettings>| s.interpolate),
+        );
     app.configure_sets(
         PostUpdate,
         (ClothMeshSystems::Attach, ClothMeshSystems::Sync)

@@ -18,6 +18,7 @@ use bevy_egui::{EguiContexts, EguiPrimaryContextPass, egui};
 use crate::cloth::Cloth;
 use crate::diagnostics::{KINETIC_ENERGY, MAX_STRAIN, SOLVER_ITERATIONS, STEP_TIME, SUBSTEPS};
 use crate::interaction::ClothGrabs;
+use crate::material::{ClothMaterial, Fabric};
 use crate::particles::ClothParticles;
 use crate::schedule::ClothPause;
 use crate::settings::{ClothDefaults, ClothModel, ClothSettings, Integrator};
@@ -71,9 +72,12 @@ fn panel(
     mut pause: ResMut<ClothPause>,
     store: Option<Res<DiagnosticsStore>>,
     mut overrides: Query<&mut ClothSettings>,
+    mut materials: Query<&mut ClothMaterial>,
     mut cloths: Query<(&SpawnState, &mut ClothParticles, &mut ClothGrabs)>,
 ) -> Result {
     let ctx = contexts.ctx_mut()?;
+    let material_before = materials.iter().next().copied().unwrap_or_default();
+    let mut material = material_before;
     let own = overrides.iter().next().cloned();
     let per_cloth = own.is_some();
     let before = own.unwrap_or_else(|| defaults.0.clone());
@@ -99,15 +103,7 @@ fn panel(
                     }
                 });
             ui.add(egui::Slider::new(&mut s.substeps, 1..=400).text("substeps"));
-            log_slider(ui, &mut s.choi_ko.stiffness, 1.0..=1e5, "k (N/m)");
-            log_slider(
-                ui,
-                &mut s.choi_ko.bending_rigidity,
-                1e-9..=1e-3,
-                "k_b (N·m²)",
-            );
-            log_slider(ui, &mut s.choi_ko.buckling_slope, 1.0..=1e5, "c_b (N/m)");
-            ui.add(egui::Slider::new(&mut s.damping, 0.0..=20.0).text("c (1/s)"));
+            material_ui(ui, &mut material, &mut s);
             ui.add(egui::Slider::new(&mut s.gravity.y, -20.0..=0.0).text("gravity (m/s²)"));
             ui.separator();
             ui.add(egui::Slider::new(&mut wind.velocity.x, -20.0..=20.0).text("wind x (m/s)"));
@@ -162,7 +158,81 @@ fn panel(
         }
         copy_changes(&before, &s, &mut defaults.0);
     }
+    if material != material_before {
+        for mut m in &mut materials {
+            copy_material(&material_before, &material, &mut m);
+        }
+    }
     Ok(())
+}
+
+/// The material: a preset or raw, then the fabric's properties, or the raw
+/// per-link constants of the settings.
+fn material_ui(ui: &mut egui::Ui, material: &mut ClothMaterial, s: &mut ClothSettings) {
+    let name = match material {
+        ClothMaterial::Raw => "raw constants",
+        ClothMaterial::Fabric(f) => Fabric::PRESETS
+            .iter()
+            .find(|(_, p)| p == f)
+            .map_or("custom fabric", |(n, _)| n),
+    };
+    egui::ComboBox::from_label("material")
+        .selected_text(name)
+        .show_ui(ui, |ui| {
+            for (name, fabric) in Fabric::PRESETS {
+                ui.selectable_value(material, ClothMaterial::Fabric(fabric), name);
+            }
+            ui.selectable_value(material, ClothMaterial::Raw, "raw constants");
+        });
+    match material {
+        ClothMaterial::Fabric(f) => {
+            log_slider(ui, &mut f.stretch, 100.0..=1e6, "stretch (N/m)");
+            log_slider(ui, &mut f.shear, 10.0..=1e6, "shear (N/m)");
+            log_slider(ui, &mut f.bending, 1e-7..=1e-2, "bending (N·m)");
+            log_slider(ui, &mut f.density, 0.01..=2.0, "density (kg/m²)");
+            ui.add(egui::Slider::new(&mut f.damping, 0.0..=20.0).text("c (1/s)"));
+        }
+        ClothMaterial::Raw => {
+            log_slider(ui, &mut s.choi_ko.stiffness, 1.0..=1e5, "k (N/m)");
+            log_slider(
+                ui,
+                &mut s.choi_ko.shear_stiffness,
+                1.0..=1e5,
+                "k shear (N/m)",
+            );
+            log_slider(
+                ui,
+                &mut s.choi_ko.bending_rigidity,
+                1e-9..=1e-3,
+                "k_b (N·m²)",
+            );
+            log_slider(ui, &mut s.choi_ko.buckling_slope, 1.0..=1e5, "c_b (N/m)");
+            ui.add(egui::Slider::new(&mut s.damping, 0.0..=20.0).text("c (1/s)"));
+        }
+    }
+}
+
+/// Copies into `target` the material change from `before` to `after`: a
+/// preset or raw whole, a moved slider field by field onto a fabric (so
+/// cloths of different fabrics keep what the slider did not touch).
+fn copy_material(before: &ClothMaterial, after: &ClothMaterial, target: &mut ClothMaterial) {
+    match (before, after, &mut *target) {
+        (ClothMaterial::Fabric(b), ClothMaterial::Fabric(a), ClothMaterial::Fabric(t))
+            if Fabric::PRESETS.iter().all(|(_, p)| p != a) =>
+        {
+            let copy = |b: f32, a: f32, t: &mut f32| {
+                if a != b {
+                    *t = a;
+                }
+            };
+            copy(b.stretch, a.stretch, &mut t.stretch);
+            copy(b.shear, a.shear, &mut t.shear);
+            copy(b.bending, a.bending, &mut t.bending);
+            copy(b.density, a.density, &mut t.density);
+            copy(b.damping, a.damping, &mut t.damping);
+        }
+        _ => *target = *after,
+    }
 }
 
 /// Copies into `target` every setting the panel shows that differs between
@@ -181,6 +251,7 @@ fn copy_changes(before: &ClothSettings, after: &ClothSettings, target: &mut Clot
     copy(b.damping, a.damping, &mut t.damping);
     let (b, a, t) = (&b.choi_ko, &a.choi_ko, &mut t.choi_ko);
     copy(b.stiffness, a.stiffness, &mut t.stiffness);
+    copy(b.shear_stiffness, a.shear_stiffness, &mut t.shear_stiffness);
     copy(
         b.bending_rigidity,
         a.bending_rigidity,
@@ -223,5 +294,23 @@ mod tests {
         after.substeps = 12;
         copy_changes(&before, &after, &mut lander);
         assert_eq!((lander.model, lander.substeps), (ClothModel::Lander, 12));
+    }
+
+    #[test]
+    fn a_moved_fabric_slider_keeps_each_cloths_other_properties() {
+        let before = ClothMaterial::COTTON;
+        let after = ClothMaterial::Fabric(Fabric {
+            bending: 1e-4,
+            ..Fabric::COTTON
+        });
+        let mut silk = ClothMaterial::SILK;
+        copy_material(&before, &after, &mut silk);
+        let f = silk.fabric().unwrap();
+        assert_eq!((f.bending, f.density), (1e-4, Fabric::SILK.density));
+        // A preset or raw replaces the whole material.
+        copy_material(&before, &ClothMaterial::DENIM, &mut silk);
+        assert_eq!(silk, ClothMaterial::DENIM);
+        copy_material(&before, &ClothMaterial::Raw, &mut silk);
+        assert_eq!(silk, ClothMaterial::Raw);
     }
 }

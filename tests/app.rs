@@ -158,7 +158,9 @@ fn the_mesh_follows_the_particles() {
     .insert_resource(Time::<Fixed>::from_hz(60.0))
     .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_secs_f64(
         1.0 / 60.0,
-    )));
+    )))
+    // The mesh shows the last step as it is (no interpolation).
+    .insert_resource(ClothMeshSettings { interpolate: false });
     let cloth = app.world_mut().spawn(hanging(7)).id();
     for _ in 0..20 {
         app.update();
@@ -185,6 +187,65 @@ fn the_mesh_follows_the_particles() {
     assert_eq!(mesh.indices().unwrap().len(), 2 * 6 * 6 * 3);
 }
 
+/// The mesh vertex positions (m) of `cloth`.
+fn mesh_positions(app: &App, cloth: Entity) -> Vec<Vec3> {
+    let handle = &app.world().get::<Mesh3d>(cloth).expect("a mesh").0;
+    let mesh = app.world().resource::<Assets<Mesh>>().get(handle).unwrap();
+    match mesh.attribute(Mesh::ATTRIBUTE_POSITION) {
+        Some(VertexAttributeValues::Float32x3(p)) => {
+            p.iter().map(|p| Vec3::from_array(*p)).collect()
+        }
+        _ => panic!("no positions"),
+    }
+}
+
+/// The free bottom corner's mesh height (m) on each of 36 frames at
+/// 60 Hz while the cloth steps at 10 Hz, with interpolation on or off.
+fn frames_at_10_hz(interpolate: bool) -> Vec<f32> {
+    let mut app = App::new();
+    app.add_plugins((
+        MinimalPlugins,
+        TransformPlugin,
+        AssetPlugin::default(),
+        ClothPlugin::default(),
+    ))
+    .init_asset::<Mesh>()
+    .insert_resource(Time::<Fixed>::from_hz(10.0))
+    .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_secs_f64(
+        1.0 / 60.0,
+    )))
+    .insert_resource(ClothMeshSettings { interpolate });
+    let cloth = app.world_mut().spawn(common::sheet(7)).id();
+    (0..36)
+        .map(|_| {
+            app.update();
+            mesh_positions(&app, cloth)[48].y
+        })
+        .collect()
+}
+
+#[test]
+fn the_mesh_is_interpolated_between_fixed_steps() {
+    // The corner of the falling sheet moves all the time. Stepped at 10 Hz
+    // and drawn at 60 Hz, the interpolated mesh moves on nearly every frame;
+    // without interpolation it holds still for five frames in six.
+    let moves = |heights: &[f32]| heights.windows(2).filter(|w| w[1] != w[0]).count();
+    let smooth = frames_at_10_hz(true);
+    let stepped = frames_at_10_hz(false);
+    eprintln!(
+        "frames the corner moved on: {} of 35 interpolated, {} of 35 stepped",
+        moves(&smooth),
+        moves(&stepped)
+    );
+    assert!(moves(&smooth) >= 28, "{smooth:?}");
+    assert!(moves(&stepped) <= 7, "{stepped:?}");
+    // Each interpolated frame lies between the steps around it.
+    let (lo, hi) = stepped
+        .iter()
+        .fold((f32::MAX, f32::MIN), |(l, h), &y| (l.min(y), h.max(y)));
+    assert!(smooth.iter().all(|&y| y >= lo - 1e-4 && y <= hi + 1e-4));
+}
+
 #[test]
 fn bounds_follow_the_moving_cloth_in_the_same_frame() {
     use bevy::camera::primitives::Aabb;
@@ -208,8 +269,9 @@ fn bounds_follow_the_moving_cloth_in_the_same_frame() {
         let Some(aabb) = app.world().get::<Aabb>(cloth) else {
             continue;
         };
-        // The box Bevy culls and picks with equals the particles' bounds now.
-        let x = &particles(&app, cloth).positions;
+        // The box Bevy culls and picks with equals the drawn cloth's bounds
+        // now (the mesh, interpolated between the last two steps).
+        let x = &mesh_positions(&app, cloth);
         let min = x.iter().fold(Vec3::MAX, |a, &b| a.min(b));
         let max = x.iter().fold(Vec3::MIN, |a, &b| a.max(b));
         assert!(

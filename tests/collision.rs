@@ -340,8 +340,9 @@ fn self_collision_keeps_a_folded_layer_from_passing_through() {
         with > 0.01,
         "with self-collision the upper layer reached {with} m"
     );
+    // Below the lower layer at y = 0 by more than the thickness.
     assert!(
-        without < -0.1,
+        without < -0.05,
         "without it the layer should pass through, got {without} m"
     );
 }

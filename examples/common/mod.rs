@@ -248,8 +248,8 @@ fn help_overlay(
                     ui.label(format!(
                         "{:?} · {:?} × {} substeps · step {} · max strain {:.2}% · kinetic {:.2} mJ",
                         s.model,
-                        s.integrator,
-                        s.substeps,
+                        stats.integrator,
+                        stats.substeps,
                         stats.steps,
                         100.0 * stats.max_strain,
                         1e3 * stats.kinetic_energy

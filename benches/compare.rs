@@ -1,0 +1,239 @@
+//! `cargo bench --bench compare`: what a frame of hanging cloth costs with
+//! this crate's defaults and with rapier-cloth-core's, in one run.
+//!
+//! **Scene.** A 1 m cloth of N × N particles standing in a vertical plane,
+//! pinned at its two top corners, let go flat at rest.
+//!
+//! - **bevy_cloth**: a headless `App` (`MinimalPlugins`, `ClothPlugin`) with
+//!   every default (cotton, backward Euler, one step per 1/60 s frame); one
+//!   `App::update` is one frame, the App's own cost included.
+//! - **rapier-cloth-core 0.3** (XPBD): its defaults, 4 substeps of 1/240 s
+//!   per frame with 8 iterations each (`SolverSettings::default`, the
+//!   substep of its README), its default material; its solver alone, no
+//!   App.
+//!
+//! After 60 frames of warm-up, the two are timed in turns, a block of
+//! frames each, so that both see the same state of a shared, noisy
+//! machine. Printed per size: the median and the range of the ms per frame,
+//! the ratio of the medians, and the largest structural strain
+//! (`ℓ/L − 1` of the links along the grid) at the end.
+//!
+//! `cargo bench --bench compare -- 15 32` limits the sizes.
+
+use std::time::{Duration, Instant};
+
+use bevy::prelude::*;
+use bevy::time::TimeUpdateStrategy;
+use bevy_cloth::prelude::*;
+use rapier_cloth_core as rc;
+
+/// Frames before timing starts.
+const WARM_UP: usize = 60;
+
+/// The sizes timed unless the command line names others.
+const SIZES: [usize; 5] = [15, 32, 64, 128, 256];
+
+/// One cloth being stepped frame by frame.
+trait Runner {
+    /// One 1/60 s frame.
+    fn frame(&mut self);
+    /// Largest structural strain now.
+    fn strain(&self) -> f32;
+}
+
+/// This crate, with its defaults, in a headless App.
+struct Ours {
+    app: App,
+    cloth: Entity,
+    n: usize,
+}
+
+impl Ours {
+    fn new(n: usize) -> Self {
+        let mut app = App::new();
+        app.add_plugins((MinimalPlugins, ClothPlugin::default()))
+            .insert_resource(Time::<Fixed>::from_hz(60.0))
+            .insert_resource(TimeUpdateStrategy::FixedTimesteps(1));
+        let cloth = ClothBuilder::new(n as u32, n as u32)
+            .size(1.0, 1.0)
+            .position(Vec3::new(0.0, 1.5, 0.0))
+            .rotation(Quat::from_rotation_x(std::f32::consts::FRAC_PI_2))
+            .pin_corner(GridCorner::TopLeft)
+            .pin_corner(GridCorner::TopRight)
+            .build()
+            .expect("valid");
+        let cloth = app.world_mut().spawn(cloth).id();
+        app.update();
+        Self { app, cloth, n }
+    }
+}
+
+impl Runner for Ours {
+    fn frame(&mut self) {
+        self.app.update();
+    }
+
+    fn strain(&self) -> f32 {
+        let x = &self
+            .app
+            .world()
+            .get::<ClothParticles>(self.cloth)
+            .unwrap()
+            .positions;
+        structural_strain(self.n, 1.0 / (self.n - 1) as f32, |p| x[p])
+    }
+}
+
+/// rapier-cloth-core with its defaults.
+struct Theirs {
+    cloth: rc::Cloth,
+    solver: rc::solver::Solver,
+    settings: rc::solver::SolverSettings,
+    n: usize,
+}
+
+impl Theirs {
+    fn new(n: usize) -> Self {
+        let mesh = rc::GridBuilder::new(n, n)
+            .size(1.0, 1.0)
+            .origin(rc::Vec3::new(-0.5, 2.0, 0.0))
+            .axes(rc::Vec3::X, -rc::Vec3::Y)
+            .build()
+            .expect("valid grid");
+        let mut cloth = rc::Cloth::new(mesh, rc::ClothMaterial::default()).expect("valid cloth");
+        for i in [0, n as u32 - 1] {
+            let at = cloth.positions()[i as usize];
+            cloth.pin(i, at).expect("a particle of the grid");
+        }
+        Self {
+            cloth,
+            solver: rc::solver::Solver::new(),
+            settings: rc::solver::SolverSettings::default(),
+            n,
+        }
+    }
+}
+
+impl Runner for Theirs {
+    fn frame(&mut self) {
+        for _ in 0..4 {
+            self.solver
+                .step(
+                    &mut self.cloth,
+                    1.0 / 240.0,
+                    rc::Vec3::new(0.0, -9.81, 0.0),
+                    &self.settings,
+                )
+                .expect("a valid step");
+        }
+    }
+
+    fn strain(&self) -> f32 {
+        let x = self.cloth.positions();
+        structural_strain(self.n, 1.0 / (self.n - 1) as f32, |p| {
+            Vec3::new(x[p].x, x[p].y, x[p].z)
+        })
+    }
+}
+
+/// The largest `ℓ/L − 1` over the links along an `n × n` grid of spacing
+/// `h` m (row-major particles at `x(p)`).
+fn structural_strain(n: usize, h: f32, x: impl Fn(usize) -> Vec3) -> f32 {
+    let mut worst = 0.0f32;
+    for j in 0..n {
+        for i in 0..n {
+            let p = j * n + i;
+            if i + 1 < n {
+                worst = worst.max(x(p).distance(x(p + 1)) / h - 1.0);
+            }
+            if j + 1 < n {
+                worst = worst.max(x(p).distance(x(p + n)) / h - 1.0);
+            }
+        }
+    }
+    worst
+}
+
+/// Median, least and largest of `ms`.
+fn summary(ms: &mut [f64]) -> (f64, f64, f64) {
+    ms.sort_by(f64::total_cmp);
+    (ms[ms.len() / 2], ms[0], ms[ms.len() - 1])
+}
+
+/// Times `frames` frames of each runner, in turns of `block` frames.
+fn race(runners: &mut [&mut dyn Runner], frames: usize, block: usize) -> Vec<Vec<f64>> {
+    let mut times = vec![Vec::with_capacity(frames); runners.len()];
+    while times[0].len() < frames {
+        for (r, t) in runners.iter_mut().zip(&mut times) {
+            for _ in 0..block {
+                let start = Instant::now();
+                r.frame();
+                t.push(start.elapsed().as_secs_f64() * 1e3);
+            }
+        }
+    }
+    times
+}
+
+fn main() {
+    let sizes: Vec<usize> = std::env::args()
+        .skip(1)
+        .filter_map(|a| a.parse().ok())
+        .filter(|&n| n >= 3)
+        .collect();
+    let sizes = if sizes.is_empty() {
+        SIZES.to_vec()
+    } else {
+        sizes
+    };
+    println!(
+        "| N × N | bevy_cloth ms/frame (range) | rapier-cloth-core ms/frame (range) | ratio | strain bevy_cloth | strain rapier |"
+    );
+    println!("|---|---|---|---|---|---|");
+    for n in sizes {
+        // Enough frames for a stable median within about a minute a size.
+        let frames = match n {
+            0..=32 => 300,
+            33..=64 => 120,
+            65..=128 => 40,
+            _ => 16,
+        };
+        let mut ours = Ours::new(n);
+        // rapier-cloth-core takes ~0.2 s a frame at 128 × 128: time it up
+        // to 128 only.
+        let mut theirs = (n <= 128).then(|| Theirs::new(n));
+        for _ in 0..WARM_UP {
+            ours.frame();
+            if let Some(t) = theirs.as_mut() {
+                t.frame();
+            }
+        }
+        let block = (frames / 8).max(1);
+        let (mut ours_ms, theirs_ms) = match theirs.as_mut() {
+            Some(t) => {
+                let mut times = race(&mut [&mut ours, t], frames, block);
+                let theirs_ms = times.pop();
+                (times.pop().unwrap(), theirs_ms)
+            }
+            None => (race(&mut [&mut ours], frames, block).remove(0), None),
+        };
+        let (a, a_lo, a_hi) = summary(&mut ours_ms);
+        let ours_strain = ours.strain();
+        match (theirs_ms, theirs) {
+            (Some(mut ms), Some(t)) => {
+                let (b, b_lo, b_hi) = summary(&mut ms);
+                println!(
+                    "| {n} | {a:.3} ({a_lo:.3}–{a_hi:.3}) | {b:.2} ({b_lo:.2}–{b_hi:.2}) | {:.0}× | {:.2} % | {:.2} % |",
+                    b / a,
+                    100.0 * ours_strain,
+                    100.0 * t.strain()
+                );
+            }
+            _ => println!(
+                "| {n} | {a:.3} ({a_lo:.3}–{a_hi:.3}) | — | — | {:.2} % | — |",
+                100.0 * ours_strain
+            ),
+        }
+        std::thread::sleep(Duration::from_millis(200));
+    }
+}
