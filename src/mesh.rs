@@ -190,6 +190,15 @@ pub(crate) fn attach_cloth_meshes(
     }
 }
 
+/// What the mesh sync reads of one cloth.
+type SyncQuery = (
+    &'static Cloth,
+    Ref<'static, ClothParticles>,
+    Option<&'static ClothPrevious>,
+    &'static Mesh3d,
+    Option<&'static GlobalTransform>,
+);
+
 /// [`ClothMeshSystems::Sync`]: writes positions and normals of every cloth
 /// that moved: its particles changed, or it is being interpolated between
 /// two different steps.
@@ -198,13 +207,7 @@ pub(crate) fn sync_cloth_meshes(
     settings: Option<Res<ClothMeshSettings>>,
     time: Option<Res<Time<Fixed>>>,
     mut shown: Local<Vec<Vec3>>,
-    cloths: Query<(
-        &Cloth,
-        Ref<ClothParticles>,
-        Option<&ClothPrevious>,
-        &Mesh3d,
-        Option<&GlobalTransform>,
-    )>,
+    cloths: Query<SyncQuery>,
 ) {
     let interpolate = settings.is_none_or(|s| s.interpolate);
     let alpha = time.map_or(1.0, |t| t.overstep_fraction().clamp(0.0, 1.0));

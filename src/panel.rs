@@ -65,6 +65,7 @@ fn log_slider(
     );
 }
 
+#[expect(clippy::too_many_arguments, reason = "a Bevy system's parameters")]
 fn panel(
     mut contexts: EguiContexts,
     mut defaults: ResMut<ClothDefaults>,
