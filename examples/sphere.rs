@@ -91,7 +91,10 @@ fn spawn_cloth(commands: &mut Commands, materials: &mut Assets<StandardMaterial>
     commands.spawn((
         cloth,
         MeshMaterial3d(material),
-        ClothCollision { thickness: 0.008 },
+        ClothCollision {
+            thickness: 0.008,
+            ..default()
+        },
     ));
 }
 

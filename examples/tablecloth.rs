@@ -142,7 +142,10 @@ fn spawn_cloth(commands: &mut Commands, fabric: &Handle<StandardMaterial>, heigh
     commands.spawn((
         cloth,
         MeshMaterial3d(fabric.clone()),
-        ClothCollision { thickness: 0.01 },
+        ClothCollision {
+            thickness: 0.01,
+            ..default()
+        },
     ));
 }
 

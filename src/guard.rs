@@ -26,9 +26,9 @@
 //!    motion) and the fallback integrator stays in force, so the next step
 //!    starts from a finite state with an integrator stable at any step: a
 //!    cloth is held back for one step at most. A cloth whose worst link its
-//!    contacts hold over-stretched and unmoving for [`SNAGGED_STEPS`] steps
-//!    (caught on a thin collider, the link through it) takes one step
-//!    without contacts.
+//!    contacts hold stretched past the bound and unmoving for
+//!    [`SNAGGED_STEPS`] steps (caught on a thin collider, a link through
+//!    it) takes one step without contacts.
 //!
 //! The stronger setting stays in force for that cloth for a while (see
 //! [`GuardState::relax`] and [`ClothStats`](crate::ClothStats)), a
@@ -288,6 +288,7 @@ pub struct GuardedStep {
 /// use bevy_cloth::guard::{GuardState, step_guarded};
 /// use bevy_cloth::integrate::StepBuffers;
 /// use bevy_cloth::prelude::*;
+/// use bevy_cloth::step::NoContacts;
 ///
 /// let mut cloth = ClothBuilder::new(8, 8).pin_corner(GridCorner::TopLeft).build().unwrap();
 /// let settings = ClothSettings::default();
@@ -295,7 +296,7 @@ pub struct GuardedStep {
 /// cloth.particles.positions[20].x = f32::NAN; // a bug in game code
 /// let step = step_guarded(
 ///     &mut cloth.particles, &cloth.connections, &settings, &[],
-///     &mut buffers, &mut guard, 1.0 / 60.0, None::<fn(_, &_, &mut _, &mut _, &_)>, false,
+///     &mut buffers, &mut guard, 1.0 / 60.0, None::<&mut NoContacts>, false,
 /// );
 /// assert!(cloth.particles.is_finite());
 /// assert!(step.report.is_some());
@@ -309,7 +310,7 @@ pub fn step_guarded<H: ContactHook>(
     buffers: &mut StepBuffers,
     state: &mut GuardState,
     dt: f32,
-    mut hook: Option<H>,
+    mut hook: Option<&mut H>,
     helper: bool,
 ) -> GuardedStep {
     let guard = settings.guard;
@@ -339,7 +340,7 @@ pub fn step_guarded<H: ContactHook>(
             external,
             buffers,
             dt,
-            hook.as_mut(),
+            hook.as_deref_mut(),
         );
         return GuardedStep {
             substeps,
@@ -373,7 +374,7 @@ pub fn step_guarded<H: ContactHook>(
             external,
             buffers,
             dt,
-            hook.as_mut(),
+            hook.as_deref_mut(),
         );
         effective.substeps = used;
         let (mut reason, mut strain) = check_measured(particles, connections, &guard, helper);
@@ -389,7 +390,7 @@ pub fn step_guarded<H: ContactHook>(
                     helper,
                 },
                 state,
-                hook.as_mut(),
+                hook.as_deref_mut(),
                 (reason, strain),
             );
         }
@@ -414,8 +415,8 @@ pub fn step_guarded<H: ContactHook>(
                     None
                 }
             };
-            // Caught: over the bound, and the worst link neither stretches
-            // nor relaxes while contacts act on the cloth.
+            // Caught: stretched far past any rest, and the worst link
+            // neither stretches nor relaxes while contacts act on it.
             let held = hook.is_some()
                 && matches!((strain, state.last_strain), (Some(now), Some(last))
                     if now > guard.max_strain && (now - last).abs() <= SNAG_CHANGE * now);
@@ -529,6 +530,11 @@ fn refine<H: ContactHook>(
     mut hook: Option<&mut H>,
     mut checked: (Option<Divergence>, Option<f32>),
 ) -> (Option<Divergence>, Option<f32>) {
+    if r.buffers.implicit.contacts.any() {
+        // Its contacts were held inside the solve: a Newton iteration
+        // without them would let go of them.
+        return checked;
+    }
     let params = r.settings.implicit;
     let trigger = params
         .newton_strain
@@ -567,7 +573,7 @@ fn refine<H: ContactHook>(
             };
             let start = &r.buffers.substep_start;
             if start.len() == positions.len() {
-                hook(sub, start, positions, velocities, inverse_masses);
+                hook.resolve(sub, start, positions, velocities, inverse_masses, &[]);
             }
         }
         let next = check_measured(r.particles, r.connections, &guard, r.helper);
@@ -642,7 +648,7 @@ pub struct GuardState {
     pub(crate) good_v: Vec<Vec3>,
     /// The Type 1 strain the last clean step left (dimensionless).
     last_strain: Option<f32>,
-    /// Steps the cloth has kept the same strain over the bound, with
+    /// Steps the cloth has kept the same strain above the bound, with
     /// colliders near (see [`SNAGGED_STEPS`]).
     snagged: u32,
     /// The state before an extra Newton iteration, to undo it.
@@ -656,8 +662,8 @@ pub struct GuardState {
     pub(crate) trips: u32,
 }
 
-/// Fixed steps a cloth may keep the same strain over the bound while it
-/// has colliders near, before a step without contacts lets it off.
+/// Fixed steps a cloth may keep the same strain above the guard's bound
+/// while it has colliders near, before a step without contacts lets it off.
 pub const SNAGGED_STEPS: u32 = 10;
 
 /// Largest relative change of the worst strain in a step of a snagged cloth.

@@ -5,6 +5,7 @@ use bevy::math::Vec3;
 use bevy::prelude::{Component, Reflect, ReflectComponent};
 
 use crate::connections::{ClothConnections, max_strain};
+use crate::integrate::implicit::{Hold, SolveContact};
 use crate::integrate::{self, StepBuffers};
 use crate::model::Dynamics;
 use crate::particles::ClothParticles;
@@ -58,6 +59,8 @@ pub struct ClothScratch {
     pub(crate) warned_diverged: bool,
     /// What the step measured that its writeback reuses.
     pub(crate) measured: crate::systems::Measured,
+    /// The contact pass's masked inverse masses.
+    pub(crate) masked: Vec<f32>,
 }
 
 /// What the last fixed step of a cloth looked like.
@@ -114,11 +117,71 @@ pub struct Substep {
     pub dt: f32,
 }
 
-/// What a contact hook gets after each substep: the substep, positions at
-/// its start (m), and the particles' positions (m), velocities (m/s) and
-/// inverse masses (1/kg) at its end, which it may correct.
-pub trait ContactHook: FnMut(Substep, &[Vec3], &mut [Vec3], &mut [Vec3], &[f32]) {}
-impl<F: FnMut(Substep, &[Vec3], &mut [Vec3], &mut [Vec3], &[f32])> ContactHook for F {}
+/// Contacts with the world over a step: what the implicit solve should
+/// hold, and what is left to resolve after each substep.
+///
+/// A closure `|substep, start, x, v, w| …` is a hook that only resolves
+/// after each substep.
+pub trait ContactHook {
+    /// After each substep: the substep, positions at its start (m), and
+    /// the particles' positions (m), velocities (m/s) and inverse masses
+    /// (1/kg) at its end, which it may correct. `held` says which particles
+    /// the implicit solve held on a surface this substep (empty when none);
+    /// their contacts are resolved already.
+    fn resolve(
+        &mut self,
+        sub: Substep,
+        start: &[Vec3],
+        x: &mut [Vec3],
+        v: &mut [Vec3],
+        w: &[f32],
+        held: &[Hold],
+    );
+
+    /// Before an implicit substep: the contacts its solve is to hold
+    /// (positions m, velocities m/s, inverse masses 1/kg at the substep's
+    /// start) into `out`. None by default.
+    fn predict(
+        &mut self,
+        _sub: Substep,
+        _x: &[Vec3],
+        _v: &[Vec3],
+        _w: &[f32],
+        _out: &mut Vec<SolveContact>,
+    ) {
+    }
+}
+
+impl<F: FnMut(Substep, &[Vec3], &mut [Vec3], &mut [Vec3], &[f32])> ContactHook for F {
+    fn resolve(
+        &mut self,
+        sub: Substep,
+        start: &[Vec3],
+        x: &mut [Vec3],
+        v: &mut [Vec3],
+        w: &[f32],
+        _held: &[Hold],
+    ) {
+        self(sub, start, x, v, w)
+    }
+}
+
+/// The hook of a step without contacts.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct NoContacts;
+
+impl ContactHook for NoContacts {
+    fn resolve(
+        &mut self,
+        _: Substep,
+        _: &[Vec3],
+        _: &mut [Vec3],
+        _: &mut [Vec3],
+        _: &[f32],
+        _: &[Hold],
+    ) {
+    }
+}
 
 /// Advances one cloth by `dt` seconds in `settings.substeps` equal substeps.
 ///
@@ -142,7 +205,7 @@ pub fn step_cloth(
         external,
         buffers,
         dt,
-        None::<fn(_, &_, &mut _, &mut _, &_)>,
+        None::<&mut NoContacts>,
     )
 }
 
@@ -156,7 +219,7 @@ pub fn step_cloth_with(
     external: &[Vec3],
     buffers: &mut StepBuffers,
     dt: f32,
-    mut contacts: Option<impl ContactHook>,
+    mut contacts: Option<&mut impl ContactHook>,
 ) -> u32 {
     let n = particles.len();
     buffers.resize(n);
@@ -180,9 +243,25 @@ pub fn step_cloth_with(
     };
     // The connections cannot change during the step: compare them once.
     integrate::sync(settings.integrator, &dynamics, n, buffers);
+    let implicit = settings.integrator.is_implicit();
     for k in 0..substeps {
-        if contacts.is_some() {
+        let sub = Substep {
+            from: k as f32 / substeps as f32,
+            to: (k + 1) as f32 / substeps as f32,
+            dt: h,
+        };
+        buffers.implicit.contacts.list.clear();
+        if let Some(hook) = contacts.as_mut() {
             buffers.substep_start.copy_from_slice(positions);
+            if implicit {
+                hook.predict(
+                    sub,
+                    positions,
+                    velocities,
+                    inverse_masses,
+                    &mut buffers.implicit.contacts.list,
+                );
+            }
         }
         integrate::step_synced(
             settings.integrator,
@@ -193,17 +272,18 @@ pub fn step_cloth_with(
             buffers,
         );
         if let Some(hook) = contacts.as_mut() {
-            let sub = Substep {
-                from: k as f32 / substeps as f32,
-                to: (k + 1) as f32 / substeps as f32,
-                dt: h,
+            let held = if implicit {
+                buffers.implicit.contacts.holds()
+            } else {
+                &[]
             };
-            hook(
+            hook.resolve(
                 sub,
                 &buffers.substep_start,
                 positions,
                 velocities,
                 inverse_masses,
+                held,
             );
         }
     }

@@ -19,11 +19,11 @@ use bevy::ecs::query::QueryData;
 
 use crate::cloth::Cloth;
 use crate::collision::{
-    ClothCollision, ClothCollisionStats, ClothSelfCollision, ColliderScene, SelfCollisionScratch,
-    bounds, resolve_substep,
+    ClothCollision, ClothCollisionStats, ClothSelfCollision, ColliderScene, SceneContacts,
+    SelfCollisionScratch, bounds,
 };
 use crate::guard::{ClothDiverged, step_guarded};
-use crate::step::{ClothForces, ClothScratch, ClothStats, Substep};
+use crate::step::{ClothForces, ClothScratch, ClothStats};
 
 /// Checks what the step indexes so that user edits can never make it panic:
 /// equal array lengths, and every link inside the particle range.
@@ -163,28 +163,23 @@ pub(crate) fn step_cloths(
             let (lo, hi) = bounds(&item.particles.positions, reach);
             scratch.near.extend(scene.overlapping(lo, hi));
         }
-        let mut self_collision = item
+        let self_collision = item
             .self_collision
             .as_mut()
             .filter(|(s, _)| s.thickness.is_finite() && s.thickness > 0.0)
             .map(|(s, buffers)| (item.cloth, s.thickness, &mut buffers.0));
-        let near = &scratch.near;
         let helper = settings.implicit.helper_thread;
-        let hook = (!near.is_empty() || self_collision.is_some()).then_some(
-            |sub: Substep, start: &[Vec3], x: &mut [Vec3], v: &mut [Vec3], w: &[f32]| {
-                let own = self_collision.as_mut().map(|(c, t, b)| (*c, *t, &mut **b));
-                let (against, itself) =
-                    resolve_substep(&scene, near, (thickness, helper), own, sub, start, x, v, w);
-                for (total, n) in totals.iter().zip([
-                    against.tests,
-                    against.contacts,
-                    itself.tests,
-                    itself.contacts,
-                ]) {
-                    total.fetch_add(n as u64, Ordering::Relaxed);
-                }
-            },
-        );
+        let mut hook =
+            (!scratch.near.is_empty() || self_collision.is_some()).then(|| SceneContacts {
+                scene: &scene,
+                near: &scratch.near,
+                thickness,
+                helper,
+                in_solve: item.collision.is_none_or(|c| c.in_solve),
+                self_collision,
+                masked: &mut scratch.masked,
+                counts: Default::default(),
+            });
         let started = Instant::now();
         let step = step_guarded(
             &mut item.particles,
@@ -194,9 +189,20 @@ pub(crate) fn step_cloths(
             &mut scratch.buffers,
             &mut scratch.guard,
             dt,
-            hook,
+            hook.as_mut(),
             helper,
         );
+        if let Some(hook) = hook {
+            let (against, itself) = hook.counts;
+            for (total, n) in totals.iter().zip([
+                against.tests,
+                against.contacts,
+                itself.tests,
+                itself.contacts,
+            ]) {
+                total.fetch_add(n as u64, Ordering::Relaxed);
+            }
+        }
         scratch.measured.strain = step.strain.map(|s| (now, s));
         scratch.pending = step.report;
         let effective = step;

@@ -29,6 +29,7 @@
 
 pub mod contact;
 pub mod narrow;
+pub mod predict;
 pub mod self_collision;
 pub mod shapes;
 pub mod trimesh;
@@ -43,9 +44,11 @@ use bevy::prelude::*;
 use bevy::time::Fixed;
 
 use crate::cloth::{Cloth, ClothError};
+use crate::integrate::implicit::{Hold, SolveContact};
 use crate::particles::ClothParticles;
 use crate::pose::WorldPose;
 use crate::schedule::ClothSystems;
+use crate::step::{ContactHook, Substep};
 use crate::team::both;
 pub use contact::Counts;
 use contact::{Geometry, MovingCollider, collide_particles, seed_triangle_pass};
@@ -198,11 +201,21 @@ pub struct ColliderMotion {
 pub struct ClothCollision {
     /// How far particles are kept from collider surfaces, in m (≥ 0).
     pub thickness: f32,
+    /// Whether the implicit integrators hold contacts inside their solve
+    /// ([`contacts`](crate::integrate::implicit::contacts)), as they do by
+    /// default. Off, contacts are only pushed out after the step, as the
+    /// explicit integrators' are after each substep: at one step per frame
+    /// a drape then slides off a ball and strains in a ring at the edge of
+    /// the contact, so this is for comparison, not for games.
+    pub in_solve: bool,
 }
 
 impl Default for ClothCollision {
     fn default() -> Self {
-        Self { thickness: 0.005 }
+        Self {
+            thickness: 0.005,
+            in_solve: true,
+        }
     }
 }
 
@@ -330,7 +343,7 @@ pub fn resolve_substep(
     near: &[usize],
     (thickness, helper): (f32, bool),
     self_collision: Option<(&Cloth, f32, &mut SelfCollisionBuffers)>,
-    sub: crate::step::Substep,
+    sub: Substep,
     start: &[Vec3],
     x: &mut [Vec3],
     v: &mut [Vec3],
@@ -361,6 +374,98 @@ pub fn resolve_substep(
         itself = self_collide(cloth, x, v, inverse_masses, self_thickness, buffers);
     }
     (against, itself)
+}
+
+/// The contacts of one cloth's step with the scene and with itself, as the
+/// integrators' [`ContactHook`]: implicit steps hold the contacts
+/// [`predict`](predict::predict_contacts) lists inside their solve;
+/// [`resolve_substep`] resolves the rest after every substep, leaving the
+/// particles the solve held alone.
+pub struct SceneContacts<'a> {
+    /// The scene.
+    pub scene: &'a ColliderScene,
+    /// The scene's colliders near the cloth.
+    pub near: &'a [usize],
+    /// Contact thickness, m.
+    pub thickness: f32,
+    /// Whether a large cloth may share the work with the helper thread.
+    pub helper: bool,
+    /// The cloth, its self-collision thickness (m) and buffers, when it
+    /// collides with itself.
+    pub self_collision: Option<(&'a Cloth, f32, &'a mut SelfCollisionBuffers)>,
+    /// Whether the implicit solve holds contacts
+    /// ([`ClothCollision::in_solve`]).
+    pub in_solve: bool,
+    /// Scratch: the inverse masses with the held particles' zeroed.
+    pub masked: &'a mut Vec<f32>,
+    /// Tests and contacts so far: against colliders, with itself.
+    pub counts: (Counts, Counts),
+}
+
+impl ContactHook for SceneContacts<'_> {
+    fn resolve(
+        &mut self,
+        sub: Substep,
+        start: &[Vec3],
+        x: &mut [Vec3],
+        v: &mut [Vec3],
+        w: &[f32],
+        held: &[Hold],
+    ) {
+        let w = if held.len() == w.len() {
+            self.masked.clear();
+            self.masked.extend(
+                w.iter()
+                    .zip(held)
+                    .map(|(&w, &h)| if h == Hold::Free { w } else { 0.0 }),
+            );
+            &self.masked[..]
+        } else {
+            w
+        };
+        let own = self
+            .self_collision
+            .as_mut()
+            .map(|(c, t, b)| (*c, *t, &mut **b));
+        let (mut against, itself) = resolve_substep(
+            self.scene,
+            self.near,
+            (self.thickness, self.helper),
+            own,
+            sub,
+            start,
+            x,
+            v,
+            w,
+        );
+        if held.len() == x.len() {
+            for &c in self.near {
+                let collider = self.scene.colliders[c].between(sub.from, sub.to);
+                against.contacts +=
+                    predict::push_out_held(&collider, held, (start, x, v), self.thickness, sub.dt);
+            }
+        }
+        self.counts.0 += against;
+        self.counts.1 += itself;
+    }
+
+    fn predict(
+        &mut self,
+        sub: Substep,
+        x: &[Vec3],
+        v: &[Vec3],
+        w: &[f32],
+        out: &mut Vec<SolveContact>,
+    ) {
+        if !self.in_solve {
+            return;
+        }
+        for &c in self.near {
+            let collider = self.scene.colliders[c].between(sub.from, sub.to);
+            predict::predict_contacts(&collider, (x, v, w), self.thickness, sub.dt, out);
+        }
+        predict::keep_nearest(out);
+    }
 }
 
 /// Adds the collision resources and systems (called by `ClothPlugin`).

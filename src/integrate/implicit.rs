@@ -33,6 +33,8 @@ use bevy::math::Vec3;
 use coarse::Coarse;
 use halves::Halves;
 
+pub use contacts::{ContactBuffers, Hold, SolveContact};
+
 use crate::team;
 use operator::{Operator, Soa, dot};
 
@@ -76,6 +78,11 @@ pub struct ImplicitBuffers {
     /// [`newton_correction`].
     target_v: Vec<Vec3>,
     gamma: f32,
+    /// The contacts the solve holds ([`contacts`]).
+    pub contacts: ContactBuffers,
+    /// This step's right-hand-side terms of sliding contacts: particle and
+    /// momentum (N·s).
+    contact_rhs: Vec<(usize, Vec3)>,
     /// Whether `dv` holds the last step's solution, the next solve's
     /// starting guess (a warm start).
     warm: bool,
@@ -121,10 +128,12 @@ impl ImplicitBuffers {
         }
     }
 
-    /// Forgets the BDF2 history, so the next BDF2 step is backward Euler.
+    /// Forgets the BDF2 history, so the next BDF2 step is backward Euler,
+    /// and the contacts' holds.
     pub fn reset_history(&mut self) {
         self.history = None;
         self.warm = false;
+        self.contacts.clear();
     }
 }
 
@@ -207,7 +216,11 @@ fn pcg_inner(params: &ImplicitParams, buffers: &mut ImplicitBuffers) -> (u32, f3
         delta = delta0;
     }
     *warm = true;
-    let tol2 = (params.tolerance as f64).powi(2);
+    // Stop at the relative tolerance, or once the mass-weighted RMS error
+    // of Δv is below the velocity tolerance: `rᵀP⁻¹r ≈ Σ m δv²` (P is
+    // mostly the mass), and a cloth at rest has a right-hand side near 0.
+    let floor = (params.velocity_tolerance as f64).powi(2) * op.total_mass();
+    let tol2 = (params.tolerance as f64).powi(2).max(floor / delta0);
     let halves = Halves::plan(op, coarse.as_deref());
     let may_share = halves.is_some() && params.helper_thread;
     let started = Instant::now();
@@ -283,6 +296,19 @@ fn linearise(
     beta: f32,
     buffers: &mut ImplicitBuffers,
 ) {
+    assemble(dynamics, (x, v, w), alpha, beta, buffers);
+    buffers.op.extra.clear();
+    build(dynamics, dynamics.inverse_masses, alpha, beta, buffers);
+}
+
+/// The first half of [`linearise`]: forces, `K w` and the blocks.
+fn assemble(
+    dynamics: &Dynamics,
+    (x, v, w): (&[Vec3], &[Vec3], &[Vec3]),
+    alpha: f32,
+    beta: f32,
+    buffers: &mut ImplicitBuffers,
+) {
     buffers.share = x.len() >= halves::MIN_PARTICLES
         && dynamics.settings.implicit.helper_thread
         && buffers.choice.share();
@@ -324,9 +350,15 @@ fn linearise(
         buffers.force[i] +=
             m * (s.gravity - s.damping * v[i]) + external.map_or(Vec3::ZERO, |e| e[i]);
     }
+}
+
+/// The second half of [`linearise`]: the operator (and the coarse one) for
+/// the inverse masses `w` (1/kg) with the contacts' blocks already in
+/// `op.extra`.
+fn build(dynamics: &Dynamics, w: &[f32], alpha: f32, beta: f32, buffers: &mut ImplicitBuffers) {
+    let s = dynamics.settings;
     let columns = dynamics.connections.columns as usize;
     let mass_scale = 1.0 + alpha * s.damping;
-    let w = dynamics.inverse_masses;
     let ImplicitBuffers {
         blocks,
         streams,
@@ -336,6 +368,7 @@ fn linearise(
     } = buffers;
     let (blocks, streams) = (&blocks[..], &*streams);
     let share = buffers.share;
+    let extra = op.extra.clone();
     let mut build = move || {
         op.build_with(
             columns,
@@ -347,6 +380,9 @@ fn linearise(
     let mut build_coarse = move || {
         s.implicit.coarse_grid && coarse.begin(columns, w, mass_scale) && {
             coarse.add_pairs(w.len(), (blocks, streams.blocks()), (alpha, beta));
+            for (i, c) in &extra {
+                coarse.add_diagonal(*i as usize, c);
+            }
             coarse.finish()
         }
     };
@@ -358,6 +394,47 @@ fn linearise(
         (build(), build_coarse())
     };
     buffers.coarse_active = active;
+}
+
+/// Assembles the step at `(x, v)` (`w` as for [`linearise`]), holds this
+/// step's contacts ([`ContactBuffers::begin`]) and builds the operator. `displacement` is
+/// what the step moves each particle besides `γ Δv` (m), as a slice and a
+/// scale; `h` the step (s). Returns whether any contact is held.
+fn linearise_held(
+    dynamics: &Dynamics,
+    (x, v, w): (&[Vec3], &[Vec3], Option<&[Vec3]>),
+    (alpha, beta, h): (f32, f32, f32),
+    displacement: (&[Vec3], f32),
+    buffers: &mut ImplicitBuffers,
+) -> bool {
+    assemble(dynamics, (x, v, w.unwrap_or(v)), alpha, beta, buffers);
+    let ImplicitBuffers {
+        contacts, force, ..
+    } = buffers;
+    let held = contacts.begin(
+        dynamics.inverse_masses,
+        force,
+        v,
+        displacement,
+        (alpha, beta, h),
+    );
+    build_held(dynamics, (alpha, beta), buffers);
+    held
+}
+
+/// The operator with the held contacts' current terms
+/// ([`ContactBuffers::emit`]) in it, and their right-hand sides in
+/// `contact_rhs`.
+fn build_held(dynamics: &Dynamics, (alpha, beta): (f32, f32), buffers: &mut ImplicitBuffers) {
+    let ImplicitBuffers {
+        contacts,
+        op,
+        contact_rhs,
+        ..
+    } = buffers;
+    contact_rhs.clear();
+    contacts.emit(&mut op.extra, |p, r| contact_rhs.push((p, r)));
+    build(dynamics, dynamics.inverse_masses, alpha, beta, buffers);
 }
 
 fn solve(dynamics: &Dynamics, buffers: &mut ImplicitBuffers) {
@@ -396,16 +473,40 @@ fn backward_euler_step(
     h: f32,
     buffers: &mut ImplicitBuffers,
 ) {
-    linearise(dynamics, (x, v, v), h, h * h, buffers);
-    for i in 0..x.len() {
-        let rhs = h * (buffers.force[i] + h * buffers.tmp[i]);
-        buffers.rhs.set(i, rhs);
-    }
-    buffers.rhs.filter(&buffers.op.free);
+    let held = if buffers.contacts.list.is_empty() && !buffers.contacts.any() {
+        linearise(dynamics, (x, v, v), h, h * h, buffers);
+        false
+    } else {
+        // `prev_v` holds v₀ (copied by `backward_euler`): D = h v₀.
+        let v0 = std::mem::take(&mut buffers.prev_v);
+        let held = linearise_held(dynamics, (x, v, None), (h, h * h, h), (&v0, h), buffers);
+        buffers.prev_v = v0;
+        held
+    };
+    let fill = |buffers: &mut ImplicitBuffers| {
+        for i in 0..x.len() {
+            let rhs = h * (buffers.force[i] + h * buffers.tmp[i]);
+            buffers.rhs.set(i, rhs);
+        }
+        add_contact_rhs(buffers);
+        buffers.rhs.filter(&buffers.op.free);
+    };
+    fill(buffers);
     solve(dynamics, buffers);
     for i in 0..x.len() {
         v[i] += buffers.dv.get(i);
         x[i] += h * v[i];
+    }
+    if held {
+        let ImplicitBuffers { contacts, dv, .. } = buffers;
+        contacts.finish((x, v), |i| dv.get(i), (h, h));
+    }
+}
+
+/// Adds the sliding contacts' terms to the right-hand side.
+fn add_contact_rhs(buffers: &mut ImplicitBuffers) {
+    for &(p, r) in &buffers.contact_rhs {
+        buffers.rhs.set(p, buffers.rhs.get(p) + r);
     }
 }
 
@@ -451,22 +552,38 @@ pub fn bdf2(
         };
     }
     let w_term = std::mem::take(&mut buffers.w_term);
-    linearise(dynamics, (x, v, &w_term), alpha, beta, buffers);
+    let held = if buffers.contacts.list.is_empty() && !buffers.contacts.any() {
+        linearise(dynamics, (x, v, &w_term), alpha, beta, buffers);
+        false
+    } else {
+        let h = 1.5 * alpha;
+        linearise_held(
+            dynamics,
+            (x, v, Some(&w_term)),
+            (alpha, beta, h),
+            (&w_term, 1.0),
+            buffers,
+        )
+    };
     buffers.w_term = w_term;
     for ((target, &vn), &vp) in buffers.target_v.iter_mut().zip(&*v).zip(&buffers.prev_v) {
         *target = vn + (vn - vp) / 3.0;
     }
     buffers.gamma = 2.0 / 3.0 * h;
-    for (i, &w) in dynamics.inverse_masses.iter().enumerate() {
-        let inertia = if w == 0.0 {
-            Vec3::ZERO
-        } else {
-            (v[i] - buffers.prev_v[i]) / (3.0 * w)
-        };
-        let rhs = inertia + 2.0 / 3.0 * h * (buffers.force[i] + buffers.tmp[i]);
-        buffers.rhs.set(i, rhs);
-    }
-    buffers.rhs.filter(&buffers.op.free);
+    let fill = |buffers: &mut ImplicitBuffers| {
+        for (i, &w) in dynamics.inverse_masses.iter().enumerate() {
+            let inertia = if w == 0.0 {
+                Vec3::ZERO
+            } else {
+                (v[i] - buffers.prev_v[i]) / (3.0 * w)
+            };
+            let rhs = inertia + 2.0 / 3.0 * h * (buffers.force[i] + buffers.tmp[i]);
+            buffers.rhs.set(i, rhs);
+        }
+        add_contact_rhs(buffers);
+        buffers.rhs.filter(&buffers.op.free);
+    };
+    fill(buffers);
     solve(dynamics, buffers);
     for i in 0..x.len() {
         let (xn, vn) = (x[i], v[i]);
@@ -482,6 +599,10 @@ pub fn bdf2(
         buffers.prev_v[i] = vn;
         x[i] = x1;
         v[i] = v1;
+    }
+    if held {
+        let ImplicitBuffers { contacts, dv, .. } = buffers;
+        contacts.finish((x, v), |i| dv.get(i), (alpha, h));
     }
     buffers.expected_x.copy_from_slice(x);
 }
@@ -534,5 +655,6 @@ pub fn newton_correction(
 mod tests;
 
 mod coarse;
+pub mod contacts;
 mod halves;
 mod operator;

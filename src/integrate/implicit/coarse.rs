@@ -173,6 +173,16 @@ impl Coarse {
         self.aggregate[a] != self.aggregate[b]
     }
 
+    /// Adds the symmetric block `c` to particle `a`'s diagonal (a contact
+    /// the solve holds): to its aggregate's, unless it is pinned.
+    pub(super) fn add_diagonal(&mut self, a: usize, c: &[f32; 6]) {
+        if let Some(&i) = self.aggregate.get(a)
+            && i != NONE
+        {
+            self.diag[i as usize] += Mat3A::from(sym_matrix(c));
+        }
+    }
+
     /// Adds the block `C` (xx, yy, zz, xy, xz, yz) of the pair `(a, b)`.
     pub(super) fn add_pair(&mut self, a: usize, b: usize, c: &[f32; 6]) {
         let (i, j) = (self.aggregate[a], self.aggregate[b]);

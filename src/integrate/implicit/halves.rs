@@ -312,6 +312,11 @@ unsafe fn body(s: &Shared, team: &Team, part: usize) -> (u32, f64) {
                 _ => unreachable!(),
             }
         }
+        // The contacts' diagonal blocks of this half.
+        // SAFETY: this half of `q`, this thread's alone in this pass.
+        unsafe {
+            s.op.add_extra_part(slices(s.padded, &own), slices_mut(s.q, &own), own.start)
+        };
         // SAFETY: this half, written by this thread only.
         let (d, q) = unsafe { (slices(s.padded, &own), slices(s.q, &own)) };
         let dq = team.sum(part, 0, dot_parts(d, q));

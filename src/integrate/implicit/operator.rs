@@ -233,6 +233,9 @@ pub(super) struct Operator {
     padded: Soa,
     /// Pairs outside the streams, with their blocks.
     others: Vec<([u32; 2], [f32; 6])>,
+    /// Blocks added to single particles' diagonal blocks (contacts held by
+    /// the solve), sorted by particle; set before [`Operator::build_with`].
+    pub(super) extra: Vec<(u32, [f32; 6])>,
     /// `M(1 + αc)` of free particles, 0 for pinned ones (kg).
     mass: Aligned,
     /// 1 for a free particle, 0 for a pinned one.
@@ -377,6 +380,11 @@ impl Operator {
                 }
             }
         }
+        for &(i, c) in &self.extra {
+            if (i as usize) < n {
+                diag.add(i as usize, &c);
+            }
+        }
         self.mass.resize(n, 0.0);
         self.free.resize(n, 0.0);
         for (i, &w) in inverse_masses.iter().enumerate() {
@@ -436,13 +444,37 @@ impl Operator {
         self.apply_others(d, out);
     }
 
-    /// Adds the pairs outside the streams to `out = A d`, filtered.
+    /// Adds the pairs outside the streams and the [`extra`](Self::extra)
+    /// diagonal blocks to `out = A d`, filtered.
     fn apply_others(&self, d: &Soa, out: &mut Soa) {
         for &([p, q], c) in &self.others {
             let (p, q) = (p as usize, q as usize);
             let t = sym_times(&c, d.get(q) - d.get(p));
             out.set(p, out.get(p) - self.free[p] * t);
             out.set(q, out.get(q) + self.free[q] * t);
+        }
+        for &(i, c) in &self.extra {
+            let i = i as usize;
+            out.set(i, out.get(i) + self.free[i] * sym_times(&c, d.get(i)));
+        }
+    }
+
+    /// Adds the [`extra`](Self::extra) diagonal blocks of the particles
+    /// `first..first + d[0].len()` to `out = A d` there (the slices start at
+    /// `first`), filtered.
+    pub(super) fn add_extra_part(&self, d: [&[f32]; 3], out: [&mut [f32]; 3], first: usize) {
+        let end = first + d[0].len();
+        let start = self.extra.partition_point(|&(i, _)| (i as usize) < first);
+        let [ox, oy, oz] = out;
+        for &(i, c) in self.extra[start..]
+            .iter()
+            .take_while(|(i, _)| (*i as usize) < end)
+        {
+            let k = i as usize - first;
+            let t = self.free[i as usize] * sym_times(&c, Vec3::new(d[0][k], d[1][k], d[2][k]));
+            ox[k] += t.x;
+            oy[k] += t.y;
+            oz[k] += t.z;
         }
     }
 
@@ -486,6 +518,11 @@ impl Operator {
 
     /// Whether the product can run as [`Operator::gather_range_avx512`] or
     /// [`Operator::gather_range_avx2`] alone: every pair is in a stream.
+    /// `Σ M(1 + αc)` over the free particles, kg.
+    pub(super) fn total_mass(&self) -> f64 {
+        self.mass.iter().map(|&m| m as f64).sum()
+    }
+
     pub(super) fn streams_only(&self) -> bool {
         self.others.is_empty()
     }

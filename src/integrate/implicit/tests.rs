@@ -240,6 +240,8 @@ fn the_coarse_grid_cuts_the_iterations_of_a_stiff_cloth() {
         settings.implicit.coarse_grid = coarse_grid;
         settings.implicit.max_iterations = 1000;
         settings.implicit.tolerance = 1e-6;
+        settings.implicit.velocity_tolerance = 0.0;
+        settings.implicit.velocity_tolerance = 0.0;
         let w = &cloth.particles.inverse_masses;
         let h = 1.0 / 60.0;
         let (dynamics, mut buffers) = linearised(&settings, &cloth, &v, h);
@@ -311,6 +313,7 @@ fn pcg_matches_a_dense_solve_and_leaves_pins_alone() {
     let mut settings = ClothSettings::default();
     settings.implicit.coarse_grid = true;
     settings.implicit.tolerance = 1e-6;
+    settings.implicit.velocity_tolerance = 0.0;
     settings.implicit.max_iterations = 500;
     let (dynamics, mut buffers) = linearised(&settings, &cloth, &v, 1.0 / 30.0);
     assert!(buffers.coarse_active);
@@ -413,6 +416,7 @@ fn spring_error(
     settings.lander.structural.stiffness = k;
     settings.lander.structural.damping = 0.0;
     settings.implicit.tolerance = 1e-7;
+    settings.implicit.velocity_tolerance = 0.0;
     let connections = ClothConnections {
         structural: vec![Link {
             a: 0,
@@ -457,5 +461,6 @@ fn backward_euler_is_first_order_and_bdf2_second_order() {
     assert!((1.7..2.3).contains(&bdf), "BDF2 order {bdf}");
 }
 
+mod contacts;
 mod streamed;
 mod two_threads;
