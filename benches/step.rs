@@ -12,8 +12,8 @@ use bevy::prelude::*;
 use bevy::tasks::{ComputeTaskPool, TaskPool};
 use bevy::time::TimeUpdateStrategy;
 use bevy::transform::TransformPlugin;
-use bevy_cloth::accuracy::scene;
 use bevy_cloth::integrate::StepBuffers;
+use bevy_cloth::lab::accuracy::scene;
 use bevy_cloth::model::bands::internal_forces_banded;
 use bevy_cloth::model::streams::ForceStreams;
 use bevy_cloth::model::{internal_forces, internal_forces_streamed};
@@ -24,7 +24,7 @@ use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
 
 const SIZES: [u32; 3] = [15, 64, 128];
 
-/// The seed's scene after 0.2 s of settling, so links are both stretched
+/// The paper's scene after 0.2 s of settling, so links are both stretched
 /// and slack as in a real run.
 fn settled(n: u32) -> ClothBundle {
     let mut cloth = scene(n);

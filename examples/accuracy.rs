@@ -1,5 +1,5 @@
 //! What accuracy costs in time (seed §6.1, MODEL.md §10): for every model ×
-//! integrator, the time per step, the largest stable step on the seed's
+//! integrator, the time per step, the largest stable step on the paper's
 //! scene, the error against a fine RK4 reference at common steps, and the
 //! cost per simulated second. Headless.
 //!
@@ -9,15 +9,15 @@
 //! ```
 //!
 //! The stability criterion and the error measure are documented in
-//! `bevy_cloth::accuracy`. With `--preset seed` (MODEL.md §10, preset S) the
-//! table also shows the seed's figures and the two ratios it reported.
+//! `bevy_cloth::lab::accuracy`. With `--preset seed` (MODEL.md §10, preset S) the
+//! table also shows the paper's figures and the two ratios it reported.
 
 use std::fmt::Write as _;
 
-use bevy_cloth::accuracy::{Plan, Preset, Row, StableStep, measure};
+use bevy_cloth::lab::accuracy::{Plan, Preset, Row, StableStep, measure};
 use bevy_cloth::prelude::*;
 
-/// The seed's figures (Pentium 4, 3.2 GHz, 15×15): explicit Euler and RK4.
+/// The paper's figures (Pentium 4, 3.2 GHz, 15×15): explicit Euler and RK4.
 const SEED_EULER: (f64, f32) = (545.0, 2.0e-4); // µs per step, largest step (s)
 const SEED_RK4: (f64, f32) = (2500.0, 1.29e-2);
 
@@ -113,7 +113,7 @@ fn table(rows: &[Row], plan: &Plan) -> String {
     let mut out = String::new();
     let _ = writeln!(
         out,
-        "preset {}, {}×{} grid, the seed's scene (hanging from two corners), f32",
+        "preset {}, {}×{} grid, the paper's scene (hanging from two corners), f32",
         plan.preset.name(),
         plan.grid,
         plan.grid

@@ -1,4 +1,4 @@
-//! The seed's §6.1 scene: a 15×15, 1 m cotton cloth pinned at two corners of
+//! The paper's §6.1 scene: a 15×15, 1 m cotton cloth pinned at two corners of
 //! a bar, released flat so it swings down under gravity and settles.
 //!
 //! `cargo run --release --example hanging`
@@ -7,11 +7,12 @@
 //! integrator (backward Euler, BDF2, explicit Euler, symplectic Euler, RK4).
 //! Drag to orbit, scroll to zoom.
 
-mod common;
+mod automation;
 
 use bevy::prelude::*;
 use bevy_cloth::prelude::*;
-use common::{ExamplePlugin, spawn_stage};
+use bevy_egui::EguiPlugin;
+use bevy_panorbit_camera::{PanOrbitCamera, PanOrbitCameraPlugin};
 
 const HELP: &str =
     "R: release again · M: Choi–Ko / Lander · I: next integrator · drag: orbit · scroll: zoom";
@@ -21,10 +22,23 @@ const BAR: f32 = 1.6;
 
 fn main() {
     App::new()
-        .add_plugins(ExamplePlugin {
-            title: "bevy_cloth: hanging",
-            help: HELP,
-        })
+        .add_plugins(DefaultPlugins.set(WindowPlugin {
+            primary_window: Some(Window {
+                title: "bevy_cloth: hanging".into(),
+                resolution: (1024u32, 640u32).into(),
+                ..default()
+            }),
+            ..default()
+        }))
+        .add_plugins((EguiPlugin::default(), PanOrbitCameraPlugin))
+        // The simulation (the mouse's left button pulls a cloth, the right
+        // one pins), its panel and the debug view.
+        .add_plugins((ClothPlugin::default(), ClothPanelPlugin, debug_view))
+        .insert_resource(ClothPanel::with_help(HELP))
+        // Scripted runs for the rendering check (`--frames`, `--screenshot`):
+        // delete this line and the example runs the same.
+        .add_plugins(automation::AutomationPlugin)
+        .add_systems(Update, orbit_unless_on_cloth)
         .add_systems(Startup, setup)
         .add_systems(Update, keys)
         .run();
@@ -51,7 +65,7 @@ fn setup(
     mut meshes: ResMut<Assets<Mesh>>,
     mut materials: ResMut<Assets<StandardMaterial>>,
 ) {
-    spawn_stage(
+    stage(
         &mut commands,
         &mut meshes,
         &mut materials,
@@ -105,3 +119,63 @@ fn keys(
         defaults.integrator = all[next % all.len()];
     }
 }
+
+/// A camera orbiting `focus` at `radius` metres, plus a sun with shadows and
+/// a ground plane at y = 0.
+fn stage(
+    commands: &mut Commands,
+    meshes: &mut Assets<Mesh>,
+    materials: &mut Assets<StandardMaterial>,
+    focus: Vec3,
+    radius: f32,
+) {
+    commands.spawn((
+        Camera3d::default(),
+        Transform::from_translation(focus + Vec3::new(0.6, 0.35, 1.0).normalize() * radius)
+            .looking_at(focus, Vec3::Y),
+        PanOrbitCamera {
+            focus,
+            radius: Some(radius),
+            yaw: Some(0.5),
+            pitch: Some(0.3),
+            ..default()
+        },
+    ));
+    commands.spawn((
+        DirectionalLight {
+            illuminance: 9_000.0,
+            shadow_maps_enabled: true,
+            ..default()
+        },
+        Transform::from_xyz(3.0, 6.0, 4.0).looking_at(Vec3::ZERO, Vec3::Y),
+    ));
+    commands.spawn((
+        Mesh3d(meshes.add(Plane3d::default().mesh().size(12.0, 12.0))),
+        MeshMaterial3d(materials.add(StandardMaterial {
+            base_color: Color::srgb(0.55, 0.58, 0.52),
+            perceptual_roughness: 1.0,
+            ..default()
+        })),
+    ));
+}
+
+/// The camera leaves the mouse alone while it is on a cloth (a press there
+/// pulls the cloth) or on the panel.
+fn orbit_unless_on_cloth(pointer: ClothPointer, mut cameras: Query<&mut PanOrbitCamera>) {
+    let free = !pointer.busy();
+    for mut camera in &mut cameras {
+        if camera.enabled != free {
+            camera.enabled = free;
+        }
+    }
+}
+
+/// The gizmo debug view, with `--features debug` (F3 toggles it).
+#[cfg(feature = "debug")]
+fn debug_view(app: &mut App) {
+    app.add_plugins(ClothDebugPlugin);
+}
+
+/// The gizmo debug view needs `--features debug`.
+#[cfg(not(feature = "debug"))]
+fn debug_view(_: &mut App) {}

@@ -1,21 +1,22 @@
-//! The seed's §6.2 comparison to play with: two identical cloths side by
+//! The paper's §6.2 comparison to play with: two identical cloths side by
 //! side, Choi–Ko's on the left and Lander's on the right, same stiffness,
 //! damping and masses. Pull either with the mouse, or press `P` to run the
 //! same scripted pull and release on both (the script of
-//! `bevy_cloth::compare`, whose figures the README quotes).
+//! `bevy_cloth::lab::compare`, whose figures the README quotes).
 //!
 //! `cargo run --release --example lander_vs_choi`
 //!
 //! Keys: `P` scripted pull on both, `R` reset. Left mouse: grab and pull;
 //! right mouse: pin/unpin; drag elsewhere to orbit.
 
-mod common;
+mod automation;
 
 use std::f32::consts::FRAC_PI_2;
 
 use bevy::prelude::*;
 use bevy_cloth::prelude::*;
-use common::{ExamplePlugin, spawn_stage};
+use bevy_egui::EguiPlugin;
+use bevy_panorbit_camera::{PanOrbitCamera, PanOrbitCameraPlugin};
 
 const HELP: &str = "left: Choi–Ko · right: Lander · P: same scripted pull on both · R: reset · mouse: grab (left), pin (right) · drag: orbit";
 
@@ -25,10 +26,23 @@ const SIDES: [(f32, ClothModel); 2] = [(-0.65, ClothModel::ChoiKo), (0.65, Cloth
 
 fn main() {
     App::new()
-        .add_plugins(ExamplePlugin {
-            title: "bevy_cloth: Lander vs Choi–Ko",
-            help: HELP,
-        })
+        .add_plugins(DefaultPlugins.set(WindowPlugin {
+            primary_window: Some(Window {
+                title: "bevy_cloth: Lander vs Choi–Ko".into(),
+                resolution: (1024u32, 640u32).into(),
+                ..default()
+            }),
+            ..default()
+        }))
+        .add_plugins((EguiPlugin::default(), PanOrbitCameraPlugin))
+        // The simulation (the mouse's left button pulls a cloth, the right
+        // one pins), its panel and the debug view.
+        .add_plugins((ClothPlugin::default(), ClothPanelPlugin, debug_view))
+        .insert_resource(ClothPanel::with_help(HELP))
+        // Scripted runs for the rendering check (`--frames`, `--screenshot`):
+        // delete this line and the example runs the same.
+        .add_plugins(automation::AutomationPlugin)
+        .add_systems(Update, orbit_unless_on_cloth)
         .add_systems(Startup, setup)
         .add_systems(Update, keys)
         .add_systems(FixedUpdate, script.before(ClothSystems::Prepare))
@@ -59,7 +73,7 @@ fn setup(
     mut meshes: ResMut<Assets<Mesh>>,
     mut materials: ResMut<Assets<StandardMaterial>>,
 ) {
-    spawn_stage(
+    stage(
         &mut commands,
         &mut meshes,
         &mut materials,
@@ -107,7 +121,7 @@ fn keys(
     }
 }
 
-/// The script of `bevy_cloth::compare`: the bottom-left corner is carried
+/// The script of `bevy_cloth::lab::compare`: the bottom-left corner is carried
 /// 0.4 m towards the camera over 0.5 s, held 0.5 s and let go.
 fn script(
     mut commands: Commands,
@@ -141,3 +155,63 @@ fn script(
         commands.remove_resource::<Script>();
     }
 }
+
+/// A camera orbiting `focus` at `radius` metres, plus a sun with shadows and
+/// a ground plane at y = 0.
+fn stage(
+    commands: &mut Commands,
+    meshes: &mut Assets<Mesh>,
+    materials: &mut Assets<StandardMaterial>,
+    focus: Vec3,
+    radius: f32,
+) {
+    commands.spawn((
+        Camera3d::default(),
+        Transform::from_translation(focus + Vec3::new(0.6, 0.35, 1.0).normalize() * radius)
+            .looking_at(focus, Vec3::Y),
+        PanOrbitCamera {
+            focus,
+            radius: Some(radius),
+            yaw: Some(0.5),
+            pitch: Some(0.3),
+            ..default()
+        },
+    ));
+    commands.spawn((
+        DirectionalLight {
+            illuminance: 9_000.0,
+            shadow_maps_enabled: true,
+            ..default()
+        },
+        Transform::from_xyz(3.0, 6.0, 4.0).looking_at(Vec3::ZERO, Vec3::Y),
+    ));
+    commands.spawn((
+        Mesh3d(meshes.add(Plane3d::default().mesh().size(12.0, 12.0))),
+        MeshMaterial3d(materials.add(StandardMaterial {
+            base_color: Color::srgb(0.55, 0.58, 0.52),
+            perceptual_roughness: 1.0,
+            ..default()
+        })),
+    ));
+}
+
+/// The camera leaves the mouse alone while it is on a cloth (a press there
+/// pulls the cloth) or on the panel.
+fn orbit_unless_on_cloth(pointer: ClothPointer, mut cameras: Query<&mut PanOrbitCamera>) {
+    let free = !pointer.busy();
+    for mut camera in &mut cameras {
+        if camera.enabled != free {
+            camera.enabled = free;
+        }
+    }
+}
+
+/// The gizmo debug view, with `--features debug` (F3 toggles it).
+#[cfg(feature = "debug")]
+fn debug_view(app: &mut App) {
+    app.add_plugins(ClothDebugPlugin);
+}
+
+/// The gizmo debug view needs `--features debug`.
+#[cfg(not(feature = "debug"))]
+fn debug_view(_: &mut App) {}

@@ -332,7 +332,7 @@ mod tests {
         // MODEL.md §6.4: ω_max = 3.6e3 rad/s, linearised at the hanging
         // equilibrium of 15×15 cotton, where many links are slack. The bound
         // counts every link, so it must lie above, but not absurdly.
-        let cloth = crate::accuracy::scene(15);
+        let cloth = crate::lab::accuracy::scene(15);
         let s = ClothSettings::default();
         let mut sums = Vec::new();
         let mode = stiffest_mode(

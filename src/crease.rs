@@ -3,7 +3,7 @@
 //! Type 1 tension spring of the new length across each, so the cloth folds
 //! there and stays folded.
 //!
-//! Beyond the seed (which only folds along grid lines and whose folds can
+//! Beyond the paper (which only folds along grid lines and whose folds can
 //! flip):
 //! - a [`Crease`] is a segment in any direction; a connection is selected
 //!   when its ends lie strictly on opposite sides of the segment's line and
@@ -20,7 +20,7 @@
 //!   particle midway): while the hinge's signed height
 //!   `σ = (x_b − ½(x_a + x_c))·n_b` is below `σ_min` on the chosen side, a
 //!   force `k_σ(σ_min − σ·s)·s·n_b` lifts it (and half of it pulls on each
-//!   end), so the fold cannot flip. [`FoldSide::Free`] is the seed's
+//!   end), so the fold cannot flip. [`FoldSide::Free`] is the paper's
 //!   behaviour.
 //!
 //! The angle of §9.2 is that of rigid flaps: a sheet stiff enough in
@@ -42,7 +42,7 @@ use crate::connections::{ClothConnections, FoldTriple, Link, LinkFamily};
 /// Which way a crease folds.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Reflect)]
 pub enum FoldSide {
-    /// Either way, and it may flip (the seed).
+    /// Either way, and it may flip (the paper).
     #[default]
     Free,
     /// The hinge rises along the cloth's normal (`+v × +u` side up for a
@@ -55,7 +55,7 @@ pub enum FoldSide {
 /// How far a crease folds.
 #[derive(Clone, Copy, Debug, PartialEq, Reflect)]
 pub enum FoldAmount {
-    /// The seed's ratio `r ∈ (0, 1]`: the axial connection centred on the
+    /// The paper's ratio `r ∈ (0, 1]`: the axial connection centred on the
     /// hinge rests at `rL` (1 = no fold).
     Ratio(f32),
     /// The turning angle `β` between the two flaps in rad, in `[0, π)`.
@@ -88,7 +88,7 @@ pub struct Crease {
 }
 
 impl Crease {
-    /// A free crease from `from` to `to` (rest `(u, v)`, m) with the seed's
+    /// A free crease from `from` to `to` (rest `(u, v)`, m) with the paper's
     /// ratio 0.7 and `k_σ` = 20 N/m.
     pub fn new(from: Vec2, to: Vec2) -> Self {
         Self {

@@ -11,12 +11,34 @@
 //! | [`KINETIC_ENERGY`] | kinetic energy of all cloths, J |
 //! | [`SOLVER_ITERATIONS`] | most conjugate-gradient iterations of any implicit cloth |
 //!
+//! A cloth with a [`Name`] also gets its own figures, under
+//! `cloth/<name>/`: [`PER_CLOTH`] lists the leaves (`step_us`, `substeps`,
+//! `max_strain`, `kinetic_energy`, `solver_iterations`); [`cloth_path`]
+//! builds the path. Every cloth's [`ClothStats`] component holds the same
+//! figures for the last fixed step.
+//!
 //! Timing uses the wall clock: for display, never for assertions.
+//!
+//! ```
+//! # use bevy::prelude::*;
+//! # use bevy::diagnostic::DiagnosticsStore;
+//! # use bevy_cloth::diagnostics::cloth_path;
+//! fn show(store: Res<DiagnosticsStore>) {
+//!     if let Some(strain) = store.get(&cloth_path("flag", "max_strain")).and_then(|d| d.value()) {
+//!         info!("the flag is stretched by {:.1} %", 100.0 * strain);
+//!     }
+//! }
+//! ```
 
 use bevy::app::{App, FixedUpdate};
-use bevy::diagnostic::{Diagnostic, DiagnosticPath, Diagnostics, RegisterDiagnostic};
+use bevy::diagnostic::{
+    Diagnostic, DiagnosticMeasurement, DiagnosticPath, Diagnostics, DiagnosticsStore,
+    RegisterDiagnostic,
+};
 use bevy::ecs::schedule::IntoScheduleConfigs;
-use bevy::prelude::{Query, Res};
+use bevy::platform::collections::HashMap;
+use bevy::platform::time::Instant;
+use bevy::prelude::{Entity, Local, Name, Query, Res, ResMut};
 
 use crate::schedule::ClothSystems;
 use crate::settings::{ClothDefaults, ClothSettings, Integrator};
@@ -65,10 +87,72 @@ pub(crate) fn configure(app: &mut App) {
     }
     app.add_systems(
         FixedUpdate,
-        record
+        (record, record_named)
             .in_set(ClothSystems::Writeback)
             .after(crate::systems::finish_step),
     );
+}
+
+/// The leaves of a named cloth's own diagnostics (see [`cloth_path`]).
+pub const PER_CLOTH: [&str; 5] = [
+    "step_us",
+    "substeps",
+    "max_strain",
+    "kinetic_energy",
+    "solver_iterations",
+];
+
+/// The path of one of a named cloth's own figures: `cloth/<name>/<leaf>`,
+/// with `leaf` one of [`PER_CLOTH`]. A `/` in the name becomes `_`.
+pub fn cloth_path(name: &str, leaf: &str) -> DiagnosticPath {
+    let name = if name.is_empty() {
+        "_".to_owned()
+    } else {
+        name.replace('/', "_")
+    };
+    DiagnosticPath::from_components(["cloth", &name, leaf])
+}
+
+/// Records the figures of every cloth with a [`Name`] under its own paths,
+/// registering them the first time.
+fn record_named(
+    _main: crate::schedule::MainThread,
+    store: Option<ResMut<DiagnosticsStore>>,
+    cloths: Query<(Entity, &ClothStats, &Name)>,
+    mut paths: Local<HashMap<Entity, (Name, Vec<DiagnosticPath>)>>,
+) {
+    let Some(mut store) = store else {
+        return;
+    };
+    let time = Instant::now();
+    paths.retain(|entity, _| cloths.contains(*entity));
+    for (entity, stats, name) in &cloths {
+        let values = [
+            stats.step_micros as f64,
+            stats.substeps.max(1) as f64,
+            stats.max_strain as f64,
+            stats.kinetic_energy as f64,
+            stats.solver_iterations as f64,
+        ];
+        let (named, own) = paths
+            .entry(entity)
+            .or_insert_with(|| (name.clone(), Vec::new()));
+        if own.is_empty() || named != name {
+            *named = name.clone();
+            *own = PER_CLOTH
+                .iter()
+                .map(|leaf| cloth_path(name.as_str(), leaf))
+                .collect();
+        }
+        for (path, value) in own.iter().zip(values) {
+            if store.get(path).is_none() {
+                store.add(Diagnostic::new(path.clone()).with_max_history_length(60));
+            }
+            if let Some(diagnostic) = store.get_mut(path) {
+                diagnostic.add_measurement(DiagnosticMeasurement { time, value });
+            }
+        }
+    }
 }
 
 fn record(

@@ -46,7 +46,7 @@
 //! tripping settles on its boost and pays a redone step ever more rarely.
 
 use bevy::math::Vec3;
-use bevy::prelude::{Entity, Message, Reflect};
+use bevy::prelude::{Entity, EntityEvent, Message, Reflect};
 
 use crate::connections::{ClothConnections, max_strain};
 use crate::integrate::StepBuffers;
@@ -116,10 +116,24 @@ pub enum Divergence {
     Speed(f32),
 }
 
-/// Sent when a cloth's step blew up and was redone.
-#[derive(Message, Clone, Debug, PartialEq)]
+/// Sent when a cloth's step blew up and was redone: written as a
+/// [`Message`] (read it with `MessageReader<ClothDiverged>`) and triggered
+/// on the cloth as an [`EntityEvent`] (observe it with
+/// `On<ClothDiverged>`).
+///
+/// ```
+/// # use bevy::prelude::*;
+/// # use bevy_cloth::prelude::*;
+/// fn report(mut diverged: MessageReader<ClothDiverged>) {
+///     for d in diverged.read() {
+///         warn!("cloth {} diverged: {:?}", d.cloth, d.reason);
+///     }
+/// }
+/// ```
+#[derive(Message, EntityEvent, Clone, Debug, PartialEq)]
 pub struct ClothDiverged {
     /// The cloth.
+    #[event_target]
     pub cloth: Entity,
     /// What tripped (on the first attempt).
     pub reason: Divergence,

@@ -22,9 +22,10 @@
 //! ```
 
 use bevy::math::Vec3;
-use bevy::prelude::{Component, Query, Reflect, ReflectComponent, Res, Time};
+use bevy::prelude::{Commands, Component, Entity, Query, Reflect, ReflectComponent, Res, Time};
 use bevy::time::Fixed;
 
+use crate::events::{ClothGrabbed, ClothReleased};
 use crate::particles::ClothParticles;
 use crate::step::ClothForces;
 
@@ -57,6 +58,8 @@ pub struct Grab {
     /// Whether the particle was pinned before a kinematic grab took it (so
     /// release leaves it pinned).
     was_pinned: Option<bool>,
+    /// Whether the grab has acted (and [`ClothGrabbed`] was triggered).
+    held: bool,
 }
 
 /// The particles of this cloth held by the game or the player.
@@ -64,9 +67,10 @@ pub struct Grab {
 #[reflect(Component)]
 pub struct ClothGrabs {
     grabs: Vec<Grab>,
-    /// Released kinematic grabs to undo at the next step: (particle, pinned before).
+    /// Released grabs that had acted, to undo and report at the next step:
+    /// (particle, pinned before a kinematic grab).
     #[reflect(ignore)]
-    released: Vec<(u32, bool)>,
+    released: Vec<(u32, Option<bool>)>,
 }
 
 impl ClothGrabs {
@@ -78,6 +82,7 @@ impl ClothGrabs {
             target,
             mode,
             was_pinned: None,
+            held: false,
         });
     }
 
@@ -118,8 +123,8 @@ impl ClothGrabs {
         let mut released = Vec::new();
         self.grabs.retain(|g| {
             if g.particle == particle {
-                if let Some(was) = g.was_pinned {
-                    released.push((g.particle, was));
+                if g.held {
+                    released.push((g.particle, g.was_pinned));
                 }
                 false
             } else {
@@ -132,8 +137,8 @@ impl ClothGrabs {
     /// Lets go of everything.
     pub fn release_all(&mut self) {
         for g in std::mem::take(&mut self.grabs) {
-            if let Some(was) = g.was_pinned {
-                self.released.push((g.particle, was));
+            if g.held {
+                self.released.push((g.particle, g.was_pinned));
             }
         }
     }
@@ -174,14 +179,20 @@ pub(crate) fn grabs_active(cloths: Query<&ClothGrabs>) -> bool {
 
 /// [`ClothSystems::Forces`](crate::ClothSystems::Forces): kinematic grabs
 /// take the velocity that reaches their target by the step's end; spring
-/// grabs add their force.
+/// grabs add their force. Triggers [`ClothGrabbed`] and [`ClothReleased`].
 pub(crate) fn apply_grabs(
     _main: crate::schedule::MainThread,
+    mut commands: Commands,
     time: Res<Time<Fixed>>,
-    mut cloths: Query<(&mut ClothGrabs, &mut ClothParticles, &mut ClothForces)>,
+    mut cloths: Query<(
+        Entity,
+        &mut ClothGrabs,
+        &mut ClothParticles,
+        &mut ClothForces,
+    )>,
 ) {
     let dt = time.timestep().as_secs_f32();
-    for (mut grabs, mut particles, mut forces) in &mut cloths {
+    for (entity, mut grabs, mut particles, mut forces) in &mut cloths {
         // Nothing held or let go: no work, and nothing marked changed.
         if grabs.grabs.is_empty() && grabs.released.is_empty() {
             continue;
@@ -189,17 +200,32 @@ pub(crate) fn apply_grabs(
         let n = particles.len();
         let ClothGrabs { grabs, released } = &mut *grabs;
         for (p, was_pinned) in released.drain(..) {
-            if was_pinned {
+            match was_pinned {
                 // A pin stays where the grab left it, at rest.
-                particles.pin(p as usize);
-            } else {
-                particles.unpin(p as usize);
+                Some(true) => {
+                    particles.pin(p as usize);
+                }
+                Some(false) => {
+                    particles.unpin(p as usize);
+                }
+                None => {}
             }
+            commands.trigger(ClothReleased {
+                entity,
+                particle: p,
+            });
         }
         for g in grabs.iter_mut() {
             let p = g.particle as usize;
             if p >= n || !g.target.is_finite() {
                 continue;
+            }
+            if !g.held {
+                g.held = true;
+                commands.trigger(ClothGrabbed {
+                    entity,
+                    particle: g.particle,
+                });
             }
             match g.mode {
                 GrabMode::Kinematic => {

@@ -1,10 +1,13 @@
 //! # bevy_cloth
 //!
-//! Cloth for Bevy 0.19 with the particle model of Choi & Ko, *Stable but
-//! Responsive Cloth* (SIGGRAPH 2002), as reproduced by Sato & Yoshida's
-//! paper on interactive cloth, with Lander's spring cloth as the baseline
-//! it is compared with. The equations, errata and test values are in the
-//! repository's `MODEL.md` (see `README.md`).
+//! Cloth for Bevy that a player can see, grab and fold: the particle cloth
+//! of Sato & Yoshida's short paper on interactive cloth, after Choi & Ko,
+//! *Stable but Responsive Cloth* (SIGGRAPH 2002), with Lander's spring
+//! cloth as the baseline it is compared with. Its threads resist
+//! stretching but not compression (*Type 1* links, between neighbours), and
+//! links two particles apart buckle at once under compression (*Type 2*),
+//! so the cloth wrinkles as fabric does. An implicit integrator keeps it
+//! stable at one step per frame, at any size.
 //!
 //! ## Getting started
 //!
@@ -14,62 +17,77 @@
 //!
 //! fn main() {
 //!     App::new()
+//!         // Also adds Bevy's mesh picking: the mouse pulls the cloth.
 //!         .add_plugins((DefaultPlugins, ClothPlugin::default()))
 //!         .add_systems(Startup, spawn)
 //!         .run();
 //! }
 //!
-//! fn spawn(mut commands: Commands) {
-//!     let cloth = ClothBuilder::new(15, 15)
+//! fn spawn(mut commands: Commands) -> Result {
+//!     commands.spawn((
+//!         Camera3d::default(),
+//!         Transform::from_xyz(0.0, 1.2, 2.5).looking_at(Vec3::Y, Vec3::Y),
+//!     ));
+//!     commands.spawn((DirectionalLight::default(), Transform::from_xyz(1.0, 3.0, 2.0).looking_at(Vec3::ZERO, Vec3::Y)));
+//!     let cloth = ClothBuilder::new(24, 24)
 //!         .size(1.0, 1.0)
+//!         .material(ClothMaterial::SILK)
 //!         .position(Vec3::new(0.0, 1.5, 0.0))
 //!         .rotation(Quat::from_rotation_x(std::f32::consts::FRAC_PI_2))
 //!         .pin_corner(GridCorner::TopLeft)
 //!         .pin_corner(GridCorner::TopRight)
-//!         .build()
-//!         .expect("valid cloth");
+//!         .build()?;
 //!     commands.spawn(cloth);
+//!     Ok(())
 //! }
 //! ```
 //!
 //! ## How it is organised
 //!
 //! - A cloth is **one entity**: [`Cloth`] (the grid), [`ClothParticles`]
-//!   (positions, velocities, masses) and [`ClothConnections`] (Type 1 /
-//!   Type 2 links) hold contiguous arrays.
+//!   (positions, velocities, masses) and [`ClothConnections`] (the links)
+//!   hold contiguous arrays; [`ClothMaterial`] sets the fabric.
 //! - [`ClothSettings`] picks the model ([`ClothModel`]), the integrator
-//!   ([`Integrator`]) and the constants: the global [`ClothDefaults`]
-//!   resource, overridden per cloth by a `ClothSettings` component.
+//!   ([`Integrator`]) and the solver's constants: the global
+//!   [`ClothDefaults`] resource, overridden per cloth by a `ClothSettings`
+//!   component.
 //! - The step runs in `FixedUpdate` in the chained [`ClothSystems`] sets and
-//!   never reads the frame delta; the mesh follows in `PostUpdate`.
-//! - The numerics ([`model`], [`integrate`], [`step::step_cloth`]) are plain
-//!   functions over slices, usable without an `App`.
+//!   never reads the frame delta; the mesh follows in `PostUpdate`,
+//!   interpolated between fixed steps.
+//! - A game reacts to [`events`] (grab, release, rest, wake, divergence)
+//!   and reads [`ClothStats`] and the [`diagnostics`].
+//! - The numerics ([`model`], [`integrate`], [`step::step_cloth`],
+//!   [`guard::step_guarded`]) are plain functions over slices, usable
+//!   without an `App`. [`lab`] holds the research measurements.
 //!
 //! ## Cargo features
 //!
 //! | feature | default | what it adds |
 //! |---|---|---|
 //! | `render` | yes | a default double-sided `StandardMaterial` for cloths that have none (pulls in `bevy_pbr`) |
-//! | `picking` | yes | pick and pull cloths with the mouse ([`picking`]); `RayCastBackfaces` on cloth meshes so a double-sided cloth is picked from behind (pulls in `bevy_picking`) |
+//! | `picking` | yes | pull and pin cloths with the mouse (`picking`); `ClothPlugin` adds `MeshPickingPlugin` when missing (pulls in `bevy_picking`) |
 //! | `egui` | yes | `ClothPanelPlugin`, an egui panel to steer every cloth (pulls in `bevy_egui`) |
+//! | `debug` | no | `ClothDebugPlugin`, a gizmo view of strain, pins, grabs, contacts and colliders |
 //!
 //! Without default features the crate is headless: no renderer, no window,
 //! no `wgpu`; meshes are still kept up to date when `Assets<Mesh>` exists.
 
 #![warn(missing_docs)]
 
-pub mod accuracy;
 pub mod adaptive;
 pub mod anchor;
 pub mod cloth;
 pub mod collision;
-pub mod compare;
 pub mod connections;
 pub mod crease;
+#[cfg(feature = "debug")]
+pub mod debug;
 pub mod diagnostics;
+pub mod events;
 pub mod guard;
 pub mod integrate;
 pub mod interaction;
+pub mod lab;
 pub mod material;
 pub mod mesh;
 pub mod model;
@@ -104,16 +122,30 @@ pub use crate::settings::{
 pub use crate::step::{ClothForces, ClothStats};
 pub use crate::systems::check_cloth;
 
-/// The things most users need: `use bevy_cloth::prelude::*;`.
+/// Every type a game names: `use bevy_cloth::prelude::*;`.
 pub mod prelude {
-    pub use crate::collision::{ClothCollider, ClothCollision, ClothSelfCollision};
+    pub use crate::adaptive::AdaptiveSubsteps;
+    pub use crate::collision::{
+        ClothCollider, ClothCollision, ClothSelfCollision, ColliderShape, MeshShape, TriMesh,
+    };
+    pub use crate::crease::{ClothCreases, Crease, FoldSide};
+    #[cfg(feature = "debug")]
+    pub use crate::debug::{ClothDebug, ClothDebugPlugin};
+    pub use crate::events::{ClothAtRest, ClothGrabbed, ClothReleased, ClothWoke};
+    pub use crate::guard::{ClothDiverged, Divergence, Fallback, GuardSettings};
     pub use crate::interaction::{ClothGrabs, GrabMode};
     pub use crate::mesh::ClothMeshSettings;
+    #[cfg(feature = "egui")]
+    pub use crate::panel::{ClothPanel, ClothPanelPlugin};
+    #[cfg(feature = "picking")]
+    pub use crate::picking::{ClothPicking, ClothPointer};
+    pub use crate::schedule::ClothPause;
     pub use crate::wind::ClothWind;
     pub use crate::{
-        ClothAnchors, ClothBuilder, ClothBundle, ClothConnections, ClothDefaults, ClothError,
-        ClothForces, ClothMaterial, ClothModel, ClothParticles, ClothPlugin, ClothSettings,
-        ClothStats, ClothSystems, Fabric, GridCorner, GridEdge, Integrator, cloth::Cloth,
+        Anchor, ClothAnchors, ClothBuilder, ClothBundle, ClothConnections, ClothDefaults,
+        ClothError, ClothForces, ClothMaterial, ClothModel, ClothParticles, ClothPlugin,
+        ClothSettings, ClothStats, ClothSystems, Fabric, GridCorner, GridEdge, ImplicitParams,
+        Integrator, cloth::Cloth,
     };
 }
 
@@ -128,12 +160,18 @@ pub struct ClothPlugin {
     /// `MeshMaterial3d<StandardMaterial>` a double-sided default material.
     /// Turn off when your cloths use another material type.
     pub default_material: bool,
+    /// With the `picking` feature: add Bevy's `MeshPickingPlugin` when the
+    /// app has picking (`DefaultPlugins` do) but no mesh picking backend, so
+    /// the mouse can pull a cloth. Turn off when you pick with another
+    /// backend.
+    pub mesh_picking: bool,
 }
 
 impl Default for ClothPlugin {
     fn default() -> Self {
         Self {
             default_material: true,
+            mesh_picking: true,
         }
     }
 }
@@ -154,6 +192,10 @@ impl Plugin for ClothPlugin {
             .register_type::<interaction::ClothGrabs>()
             .register_type::<wind::ClothWind>()
             .add_message::<guard::ClothDiverged>()
+            .register_type::<events::ClothGrabbed>()
+            .register_type::<events::ClothReleased>()
+            .register_type::<events::ClothAtRest>()
+            .register_type::<events::ClothWoke>()
             .init_resource::<schedule::ClothPause>()
             .register_type::<schedule::ClothPause>()
             .configure_sets(
@@ -208,6 +250,20 @@ impl Plugin for ClothPlugin {
                 render::attach_default_material.in_set(mesh::ClothMeshSystems::Attach),
             );
         }
+    }
+
+    fn finish(&self, app: &mut App) {
+        // Here rather than in `build`, so that the user's own
+        // `MeshPickingPlugin`, added before or after this one, is seen.
+        #[cfg(feature = "picking")]
+        if self.mesh_picking
+            && app.is_plugin_added::<bevy::picking::PickingPlugin>()
+            && !app.is_plugin_added::<bevy::picking::mesh_picking::MeshPickingPlugin>()
+        {
+            app.add_plugins(bevy::picking::mesh_picking::MeshPickingPlugin);
+        }
+        #[cfg(not(feature = "picking"))]
+        let _ = app;
     }
 }
 

@@ -21,7 +21,7 @@
 //! curvature `κ` stores `½ k_b L κ²` in each Type 2 link (MODEL.md §3.2), and
 //! summing the axial and diagonal links over a unit area gives a sheet of
 //! rigidity `B = 3.41 k_b / h` (MODEL.md §11), so `k_b = B·h/3.41`. The
-//! buckling ramp `c_b` is set to the stretch stiffness, as the seed does,
+//! buckling ramp `c_b` is set to the stretch stiffness, as the paper does,
 //! and Lander's springs get `stretch`, `shear` and 0.6 × `stretch`.
 //!
 //! **What stays the same across resolutions, and what does not.** Stretch,
@@ -197,8 +197,8 @@ impl Default for Fabric {
 /// What a cloth is made of: a [`Fabric`] (cotton unless you choose), or the
 /// raw per-link constants of its [`ClothSettings`].
 ///
-/// Every [`Cloth`](crate::Cloth) has one; [`ClothBuilder::material`]
-/// (crate::ClothBuilder::material) sets it and the masses that go with it.
+/// Every [`Cloth`] has one; [`ClothBuilder::material`](crate::ClothBuilder::material)
+/// sets it and the masses that go with it.
 /// Changing it on a live cloth changes its stiffness, bending and damping
 /// at the next step, and its masses to the new density.
 ///

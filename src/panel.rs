@@ -25,11 +25,50 @@ use crate::settings::{ClothDefaults, ClothModel, ClothSettings, Integrator};
 use crate::wind::ClothWind;
 
 /// Adds the cloth panel (top right) to the primary egui context.
+///
+/// ```no_run
+/// # use bevy::prelude::*;
+/// # use bevy_cloth::prelude::*;
+/// App::new()
+///     .add_plugins((DefaultPlugins, bevy_egui::EguiPlugin::default()))
+///     .add_plugins((ClothPlugin::default(), ClothPanelPlugin))
+///     .insert_resource(ClothPanel::with_help("R: reset"))
+///     .run();
+/// ```
 pub struct ClothPanelPlugin;
+
+/// What the panel shows: whether it is open, and a help line at its top.
+#[derive(Resource, Clone, Debug, PartialEq)]
+pub struct ClothPanel {
+    /// Whether the panel is drawn.
+    pub open: bool,
+    /// A line of help shown at the top of the panel (none when empty).
+    pub help: String,
+}
+
+impl Default for ClothPanel {
+    fn default() -> Self {
+        Self {
+            open: true,
+            help: String::new(),
+        }
+    }
+}
+
+impl ClothPanel {
+    /// An open panel with `help` at its top.
+    pub fn with_help(help: impl Into<String>) -> Self {
+        Self {
+            open: true,
+            help: help.into(),
+        }
+    }
+}
 
 impl Plugin for ClothPanelPlugin {
     fn build(&self, app: &mut App) {
         app.init_resource::<ClothWind>()
+            .init_resource::<ClothPanel>()
             .add_observer(remember_spawn_state)
             .add_systems(EguiPrimaryContextPass, panel);
     }
@@ -67,6 +106,7 @@ fn log_slider(
 
 #[expect(clippy::too_many_arguments, reason = "a Bevy system's parameters")]
 fn panel(
+    shown: Res<ClothPanel>,
     mut contexts: EguiContexts,
     mut defaults: ResMut<ClothDefaults>,
     mut wind: ResMut<ClothWind>,
@@ -76,6 +116,9 @@ fn panel(
     mut materials: Query<&mut ClothMaterial>,
     mut cloths: Query<(&SpawnState, &mut ClothParticles, &mut ClothGrabs)>,
 ) -> Result {
+    if !shown.open {
+        return Ok(());
+    }
     let ctx = contexts.ctx_mut()?;
     let material_before = materials.iter().next().copied().unwrap_or_default();
     let mut material = material_before;
@@ -87,6 +130,10 @@ fn panel(
         .anchor(egui::Align2::RIGHT_TOP, egui::vec2(-10.0, 10.0))
         .default_width(270.0)
         .show(ctx, |ui| {
+            if !shown.help.is_empty() {
+                ui.label(egui::RichText::new(&shown.help).strong());
+                ui.separator();
+            }
             ui.horizontal(|ui| {
                 ui.label("model");
                 if per_cloth {

@@ -93,6 +93,22 @@ impl ClothParticles {
             .sum()
     }
 
+    /// Speed of the fastest free particle, m/s (0 when none is free; NaN
+    /// when a free velocity is not finite).
+    pub fn max_speed(&self) -> f32 {
+        let mut fastest = 0.0f32;
+        for (v, w) in self.velocities.iter().zip(&self.inverse_masses) {
+            if *w != 0.0 {
+                let s = v.length_squared();
+                if !s.is_finite() {
+                    return f32::NAN;
+                }
+                fastest = fastest.max(s);
+            }
+        }
+        fastest.sqrt()
+    }
+
     /// Whether every position and velocity is finite.
     pub fn is_finite(&self) -> bool {
         self.positions

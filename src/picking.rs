@@ -4,12 +4,34 @@
 //! unpins the nearest particle. Built on [`ClothGrabs`], so game code sees
 //! the player's grabs like its own.
 //!
-//! Needs Bevy's `MeshPickingPlugin` (not in `DefaultPlugins`). A UI that
-//! takes part in picking (bevy_egui with its `picking` feature) sits in
-//! front of the cloth, so pointer events over a panel never reach it.
+//! Needs Bevy's `MeshPickingPlugin`, which [`ClothPlugin`](crate::ClothPlugin)
+//! adds when the app has picking but no mesh backend. A UI that takes part
+//! in picking (bevy_egui with its `picking` feature) sits in front of the
+//! cloth, so pointer events over a panel never reach it.
+//!
+//! A camera controller should leave the mouse alone while it pulls a
+//! cloth (or works a panel); [`ClothPointer`] says when:
+//!
+//! ```
+//! # use bevy::prelude::*;
+//! # use bevy_cloth::prelude::*;
+//! /// Stands in for an orbit camera's controller.
+//! #[derive(Component)]
+//! struct Orbit {
+//!     enabled: bool,
+//! }
+//!
+//! fn orbit_unless_on_cloth(pointer: ClothPointer, mut cameras: Query<&mut Orbit>) {
+//!     for mut orbit in &mut cameras {
+//!         orbit.enabled = !pointer.busy();
+//!     }
+//! }
+//! ```
 
+use bevy::ecs::system::SystemParam;
 use bevy::picking::backend::ray::{RayId, RayMap};
 use bevy::picking::events::{Drag, DragEnd, Pointer, Press, Release};
+use bevy::picking::hover::HoverMap;
 use bevy::picking::pointer::{PointerButton, PointerId};
 use bevy::platform::collections::HashMap;
 use bevy::prelude::*;
@@ -46,6 +68,45 @@ impl PointerGrabs {
     /// leave the mouse alone).
     pub fn active(&self) -> bool {
         !self.0.is_empty()
+    }
+}
+
+/// Whether the mouse is busy with a cloth: over one (a press there grabs
+/// it) or holding a particle; with the `egui` feature, also whether an egui
+/// panel has it. A system parameter for camera controllers.
+#[derive(SystemParam)]
+pub struct ClothPointer<'w, 's> {
+    hovers: Option<Res<'w, HoverMap>>,
+    held: Res<'w, PointerGrabs>,
+    cloths: Query<'w, 's, (), With<crate::cloth::Cloth>>,
+    #[cfg(feature = "egui")]
+    egui: Option<Res<'w, bevy_egui::input::EguiWantsInput>>,
+}
+
+impl ClothPointer<'_, '_> {
+    /// Whether a camera should leave the mouse alone: [`Self::on_cloth`],
+    /// or (feature `egui`) an egui panel is under or using the pointer.
+    pub fn busy(&self) -> bool {
+        #[cfg(feature = "egui")]
+        if self
+            .egui
+            .as_ref()
+            .is_some_and(|e| e.wants_pointer_input() || e.is_pointer_over_area())
+        {
+            return true;
+        }
+        self.on_cloth()
+    }
+
+    /// Whether a pointer holds a particle or hovers over a cloth.
+    pub fn on_cloth(&self) -> bool {
+        self.held.active()
+            || self.hovers.as_ref().is_some_and(|hovers| {
+                hovers
+                    .values()
+                    .flat_map(|hits| hits.keys())
+                    .any(|e| self.cloths.contains(*e))
+            })
     }
 }
 

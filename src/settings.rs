@@ -19,21 +19,21 @@ use crate::cloth::ClothError;
 /// Which internal force model a cloth uses.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Reflect)]
 pub enum ClothModel {
-    /// Choi & Ko (2002) as in the seed: tension-only Type 1 links and
+    /// Choi & Ko (2002) as in the paper: tension-only Type 1 links and
     /// buckling Type 2 links (MODEL.md §2–§3).
     #[default]
     ChoiKo,
     /// Lander (1999): two-sided damped springs, structural, shear and ±2
-    /// axial bend (MODEL.md §7); the seed's baseline.
+    /// axial bend (MODEL.md §7); the paper's baseline.
     Lander,
 }
 
 /// Which time integrator advances a cloth (MODEL.md §6).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Reflect)]
 pub enum Integrator {
-    /// The seed's explicit Euler (eq. 6): positions move with the *old*
+    /// The paper's explicit Euler (eq. 6): positions move with the *old*
     /// velocity. Stable only for `dt ≤ c/ω²` (MODEL.md §6.1); kept to
-    /// reproduce the seed, not for games.
+    /// reproduce the paper, not for games.
     ExplicitEuler,
     /// Symplectic Euler: positions move with the *new* velocity. Same cost
     /// as explicit Euler, stable for `dt ≲ 2/ω_max` (MODEL.md §6.2).
@@ -101,7 +101,7 @@ pub enum Type2Jacobian {
 /// Keeping it stops a large step from overshooting a slack link deep into
 /// tension (a 1/30 s drop test strained 112 % without it, 7 % with it), but
 /// it is not the derivative of the force, so at small steps it costs
-/// accuracy (measured: 15× the error at 1e-4 s on the seed's cloth).
+/// accuracy (measured: 15× the error at 1e-4 s on the paper's cloth).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Reflect)]
 pub enum SlackStiffness {
     /// Keep it when the step cannot resolve the stiffest spring,
@@ -144,8 +144,8 @@ pub struct ImplicitParams {
     pub coarse_grid: bool,
     /// Whether a grid cloth of at least 2048 particles shares the passes
     /// of its conjugate gradient with a helper thread
-    /// ([`implicit`](crate::integrate::implicit)): on this project's
-    /// 2-core machine a 64×64 solve takes about 1.2 ms rather than 2. It
+    /// ([`implicit`](crate::integrate::implicit)): on a 2-core x86-64
+    /// a 64×64 solve takes about 1.2 ms rather than 2. It
     /// also lets such a cloth, with any integrator, resolve its contacts in
     /// two halves on the two threads
     /// ([`collision::SPLIT_PARTICLES`](crate::collision::SPLIT_PARTICLES)).
@@ -194,7 +194,7 @@ pub struct ChoiKoParams {
     pub shear_stiffness: f32,
     /// Flexural rigidity `k_b` of the Type 2 links in N·m².
     pub bending_rigidity: f32,
-    /// Slope `c_b` of the linear pre-buckling ramp in N/m (seed eq. 4; the
+    /// Slope `c_b` of the linear pre-buckling ramp in N/m (paper eq. 4; the
     /// seed sets it to about `k`).
     pub buckling_slope: f32,
     /// Axial pair damping `k_d` on taut Type 1 links in N·s/m (MODEL.md §4);
@@ -325,7 +325,7 @@ impl Parallelism {
     /// bands: 4. The bands run the link-by-link pair kernel, which costs
     /// 2.7 times as much per link as the single-threaded force streams
     /// (128×128: 529 against 194 µs), so they need three threads to break
-    /// even. On this project's 2-core machine the streams on one thread
+    /// even. On a 2-core x86-64 the streams on one thread
     /// beat the bands on two at every size measured (256×256: 1.07 against
     /// 1.62 ms). The figure of 4 is that estimate, not a measurement.
     pub const AUTO_MIN_THREADS: usize = 4;

@@ -61,6 +61,8 @@ pub struct ClothScratch {
     pub(crate) measured: crate::systems::Measured,
     /// The contact pass's masked inverse masses.
     pub(crate) masked: Vec<f32>,
+    /// Whether the cloth is at rest, and for how long it has been calm.
+    pub(crate) rest: crate::events::RestTracker,
 }
 
 /// What the last fixed step of a cloth looked like.
@@ -87,6 +89,10 @@ pub struct ClothStats {
     pub substeps: u32,
     /// Integrator the last step ran with.
     pub integrator: crate::settings::Integrator,
+    /// Speed of the fastest free particle, m/s.
+    pub max_speed: f32,
+    /// Whether the cloth is at rest (see [`ClothAtRest`](crate::events::ClothAtRest)).
+    pub resting: bool,
 }
 
 impl ClothStats {
@@ -102,6 +108,7 @@ impl ClothStats {
     pub(crate) fn measure_with(&mut self, particles: &ClothParticles, max_strain: f32) {
         self.max_strain = max_strain;
         self.kinetic_energy = particles.kinetic_energy();
+        self.max_speed = particles.max_speed();
         self.finite = particles.is_finite();
     }
 }

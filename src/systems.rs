@@ -5,7 +5,9 @@ use bevy::ecs::change_detection::Tick;
 use bevy::ecs::system::SystemChangeTick;
 use bevy::log::warn;
 use bevy::math::Vec3;
-use bevy::prelude::{DetectChanges, Entity, MessageWriter, Query, Ref, Res, ResMut, Time};
+use bevy::prelude::{
+    Commands, DetectChanges, Entity, MessageWriter, Query, Ref, Res, ResMut, Time,
+};
 use bevy::time::Fixed;
 
 use crate::cloth::ClothError;
@@ -22,7 +24,9 @@ use crate::collision::{
     ClothCollision, ClothCollisionStats, ClothSelfCollision, ColliderScene, SceneContacts,
     SelfCollisionScratch, bounds,
 };
+use crate::events::{ClothAtRest, ClothWoke, RestChange};
 use crate::guard::{ClothDiverged, step_guarded};
+use crate::interaction::ClothGrabs;
 use crate::step::{ClothForces, ClothScratch, ClothStats};
 
 /// Checks what the step indexes so that user edits can never make it panic:
@@ -235,22 +239,26 @@ type WritebackQuery = (
     &'static mut ClothForces,
     &'static mut ClothStats,
     &'static mut ClothScratch,
+    Option<&'static ClothGrabs>,
 );
 
 /// [`ClothSystems::Writeback`](crate::schedule::ClothSystems::Writeback):
 /// clears the external forces, measures [`ClothStats`] (with the strain the
 /// step's guard measured, if the particles have not changed since:
-/// [`Measured`]) and reports the step's divergences
-/// ([`report_divergence`]), in one system.
+/// [`Measured`]), reports the step's divergences ([`report_divergence`]) and
+/// triggers [`ClothAtRest`] and [`ClothWoke`], in one system. A cloth
+/// whose grabs move a particle is not at rest, whatever its free particles
+/// do.
 pub(crate) fn finish_step(
     _main: crate::schedule::MainThread,
+    mut commands: Commands,
     mut cloths: Query<WritebackQuery>,
     mut out: MessageWriter<ClothDiverged>,
     ticks: SystemChangeTick,
 ) {
     let now = ticks.this_run();
-    for (entity, particles, connections, mut forces, mut stats, mut scratch) in &mut cloths {
-        report_divergence(entity, &mut scratch, &mut out);
+    for (entity, particles, connections, mut forces, mut stats, mut scratch, grabs) in &mut cloths {
+        report_divergence(entity, &mut scratch, &mut out, &mut commands);
         if forces.0.iter().any(|f| *f != Vec3::ZERO) {
             forces.0.fill(Vec3::ZERO);
         }
@@ -263,7 +271,26 @@ pub(crate) fn finish_step(
             }
         } else {
             stats.finite = particles.is_finite();
+            stats.max_speed = f32::NAN;
         }
+        let grabbed = grabs.map_or(0.0, |g| {
+            g.grabs()
+                .iter()
+                .filter_map(|g| particles.velocities.get(g.particle as usize))
+                .fold(0.0f32, |m, v| m.max(v.length()))
+        });
+        // NaN (a non-finite free particle) stays NaN.
+        let speed = if stats.max_speed.is_nan() {
+            f32::NAN
+        } else {
+            stats.max_speed.max(grabbed)
+        };
+        match scratch.rest.step(speed) {
+            Some(RestChange::CameToRest) => commands.trigger(ClothAtRest { entity }),
+            Some(RestChange::Woke) => commands.trigger(ClothWoke { entity }),
+            None => {}
+        }
+        stats.resting = scratch.rest.resting();
     }
 }
 
@@ -272,6 +299,7 @@ fn report_divergence(
     entity: Entity,
     scratch: &mut ClothScratch,
     out: &mut MessageWriter<ClothDiverged>,
+    commands: &mut Commands,
 ) {
     let Some((reason, substeps, integrator, recovered)) = scratch.pending.take() else {
         return;
@@ -287,11 +315,13 @@ fn report_divergence(
         );
         scratch.warned_diverged = true;
     }
-    out.write(ClothDiverged {
+    let diverged = ClothDiverged {
         cloth: entity,
         reason,
         substeps,
         integrator,
         recovered,
-    });
+    };
+    commands.trigger(diverged.clone());
+    out.write(diverged);
 }

@@ -1,11 +1,11 @@
-//! The accuracy example's measurements reproduce the seed's two headline
+//! The accuracy example's measurements reproduce the paper's two headline
 //! ratios (seed §6.1, MODEL.md §10) on preset S, and its JSON lines parse.
 //! Ratios are measured within one run, never absolute times.
 
-use bevy_cloth::accuracy::{Plan, Preset, StableStep, measure, micros_per_step};
+use bevy_cloth::lab::accuracy::{Plan, Preset, StableStep, measure, micros_per_step};
 use bevy_cloth::prelude::*;
 
-/// The seed: RK4 costs 2.5 / 0.545 = 4.59× explicit Euler per step and
+/// The paper: RK4 costs 2.5 / 0.545 = 4.59× explicit Euler per step and
 /// takes a 1.29e-2 / 2.0e-4 = 64.5× larger step.
 const SEED_COST_RATIO: f64 = 2500.0 / 545.0;
 const SEED_STEP_RATIO: f32 = 1.29e-2 / 2.0e-4;

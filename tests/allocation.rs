@@ -5,8 +5,8 @@ use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
-use bevy_cloth::accuracy::scene;
 use bevy_cloth::integrate::StepBuffers;
+use bevy_cloth::lab::accuracy::scene;
 use bevy_cloth::prelude::*;
 use bevy_cloth::step::step_cloth;
 

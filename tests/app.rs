@@ -1,5 +1,5 @@
 //! Headless app tests: `MinimalPlugins` + `ClothPlugin`, `FixedUpdate`
-//! stepped an exact number of times (DESIGN.md §8 recipe).
+//! stepped an exact number of times (`TimeUpdateStrategy::FixedTimesteps`).
 
 mod common;
 

@@ -1,7 +1,7 @@
 //! Seed §6.2: after the same pull and release, how much do Choi–Ko's and
 //! Lander's cloths still move, and how wrinkled do they stay?
 
-use bevy_cloth::compare::pull_and_release;
+use bevy_cloth::lab::compare::pull_and_release;
 use bevy_cloth::prelude::*;
 
 #[test]
@@ -23,7 +23,7 @@ fn lander_and_choi_ko_after_the_same_pull() {
         );
         assert!(r.finite);
     }
-    // What the README states. Wrinkles: the seed's claim holds.
+    // What the README states. Wrinkles: the paper's claim holds.
     assert!(lander.wrinkle > 2.0 * choi.wrinkle);
     // Oscillation: only in part. Lander's cloth moves more 2 s after the
     // release, Choi–Ko's more at 1 s (it swings back harder from a pull

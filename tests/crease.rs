@@ -360,7 +360,7 @@ fn a_mountain_fold_keeps_its_side_under_random_impulses() {
 #[test]
 fn a_free_fold_can_flip_as_in_the_seed() {
     // The same valley fold, free, pushed hard (10 m/s) towards closing: its
-    // hinge height changes sign, the flip the seed reports. (3 m/s pushes
+    // hinge height changes sign, the flip the paper reports. (3 m/s pushes
     // do not flip it: the crease springs hold a free fold firmly too.)
     let heights = kicked(FoldSide::Free, 0.5, -10.0);
     let (lo, hi) = heights

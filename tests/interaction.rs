@@ -10,7 +10,7 @@ fn grabs(app: &mut App, e: Entity) -> Mut<'_, ClothGrabs> {
     app.world_mut().get_mut::<ClothGrabs>(e).unwrap()
 }
 
-/// The free bottom-right corner of the seed's hanging cloth.
+/// The free bottom-right corner of the paper's hanging cloth.
 const CORNER: u32 = 224;
 
 #[test]

@@ -1,6 +1,6 @@
 //! The cotton cloth of MODEL.md §11 hanging from two corners for 10
 //! simulated seconds stays finite and barely stretched under symplectic
-//! Euler and RK4 at their safe steps (MODEL.md §6.4, §11), while the seed's
+//! Euler and RK4 at their safe steps (MODEL.md §6.4, §11), while the paper's
 //! explicit Euler at RK4's step blows up: the check can fail.
 
 mod common;
@@ -57,7 +57,7 @@ fn explicit_euler_at_rk4_step_blows_up() {
     let mut cloth = hanging(15);
     let run = simulate(&mut cloth, &cotton(Integrator::ExplicitEuler), RK4_DT, 10.0);
     eprintln!("explicit Euler {run:?}");
-    // The seed's Euler needs dt ≤ c/ω² ≈ 1.5e-7 s here: at 6e-4 s it diverges.
+    // The paper's Euler needs dt ≤ c/ω² ≈ 1.5e-7 s here: at 6e-4 s it diverges.
     assert!(!run.finite || run.peak_strain > 1.0, "{run:?}");
     assert!(run.seconds < 10.0, "it should not survive the run: {run:?}");
 }

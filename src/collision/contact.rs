@@ -223,7 +223,7 @@ pub fn collide_particles(
     counts
 }
 
-/// The seed's pass for mesh colliders (MODEL.md §8.1): every cloth triangle
+/// The paper's pass for mesh colliders (MODEL.md §8.1): every cloth triangle
 /// that intersects a collider triangle ([`triangles_intersect`], both
 /// directions) has the velocities of its three free vertices answered with
 /// the corrected response of §8.2. Positions are left to the vertex pass.

@@ -20,7 +20,7 @@
 //!    **after every substep**: once per fixed step is too coarse for springs
 //!    that oscillate eight times within it, and a draped cloth gains energy
 //!    and flies off.
-//! 3. In [`ClothSystems::Collide`] the seed's triangle–triangle pass runs
+//! 3. In [`ClothSystems::Collide`] the paper's triangle–triangle pass runs
 //!    once per step for mesh colliders.
 //!
 //! **Only when needed**: with no `ClothCollider` in the world none of this
@@ -67,7 +67,7 @@ pub struct MeshShape(pub Arc<TriMesh>);
 pub enum ColliderShape {
     /// An analytic shape (exact distances, swept against fast motion).
     Analytic(Shape),
-    /// A triangle mesh (vertex–triangle tests with a BVH, plus the seed's
+    /// A triangle mesh (vertex–triangle tests with a BVH, plus the paper's
     /// triangle–triangle test).
     Mesh(MeshShape),
 }
@@ -543,7 +543,7 @@ fn mesh_in_scene(scene: Res<ColliderScene>) -> bool {
         .any(|c| matches!(c.shape, ColliderShape::Mesh(_)))
 }
 
-/// [`ClothSystems::Collide`]: the seed's
+/// [`ClothSystems::Collide`]: the paper's
 /// triangle–triangle pass against mesh colliders, once per fixed step.
 fn seed_pass(
     _main: crate::schedule::MainThread,

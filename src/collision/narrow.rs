@@ -1,9 +1,9 @@
-//! The seed's triangle–triangle test (MODEL.md §8.1) and the collision
+//! The paper's triangle–triangle test (MODEL.md §8.1) and the collision
 //! response of MODEL.md §8.2, as pure functions.
 
 use bevy::math::Vec3;
 
-/// Whether an edge of `b` pierces triangle `a`: the seed's test in one
+/// Whether an edge of `b` pierces triangle `a`: the paper's test in one
 /// direction (MODEL.md §8.1, after Kaiser).
 ///
 /// 1. The plane of `a`: `N = (a₁ − a₀) × (a₂ − a₀)`, `d = −N·a₀`.
@@ -31,7 +31,7 @@ pub fn edges_pierce(a: [Vec3; 3], b: [Vec3; 3]) -> bool {
     false
 }
 
-/// The seed's triangle–triangle intersection test, run in both directions
+/// The paper's triangle–triangle intersection test, run in both directions
 /// as MODEL.md §8.1 requires (an edge of either triangle piercing the
 /// other). Touching without crossing (an edge lying in the other's plane, a
 /// shared edge) and coplanar overlap are not intersections for this test.
@@ -47,7 +47,7 @@ pub fn triangles_intersect(a: [Vec3; 3], b: [Vec3; 3]) -> bool {
 /// `v_r' = −e·v_n + max(0, 1 − μ(1 + e)|v_n|/|v_t|)·v_t`, `v' = v_obj + v_r'`.
 /// When separating the velocity is returned unchanged with factor 1.
 ///
-/// Why not the seed's `V' = 2(V·N)N − V`: that mirrors `V` about the normal
+/// Why not the paper's `V' = 2(V·N)N − V`: that mirrors `V` about the normal
 /// *line* (the optics formula for a vector pointing away from the surface),
 /// so it keeps the normal component and negates the tangential one: a
 /// particle moving into the object keeps moving into it. The mirror about
@@ -115,7 +115,7 @@ mod tests {
         // Sharing an edge at an angle (a fold of the cloth).
         let hinge = tri([-1.0, 0.0, -1.0], [1.0, 0.0, -1.0], [0.0, 1.0, -1.5]);
         check(floor, hinge, false);
-        // Coplanar and overlapping: the seed's test cannot see it.
+        // Coplanar and overlapping: the paper's test cannot see it.
         let coplanar = tri([-0.5, 0.0, -0.5], [0.5, 0.0, -0.5], [0.0, 0.0, 0.5]);
         check(floor, coplanar, false);
         // Above the floor, or beside it.
@@ -129,7 +129,7 @@ mod tests {
     fn response_reverses_the_normal_part_unlike_the_seed_formula() {
         let n = Vec3::Y;
         let v = Vec3::new(1.0, -1.0, 0.0);
-        // The seed's formula keeps the particle going into the surface.
+        // The paper's formula keeps the particle going into the surface.
         let seed = 2.0 * v.dot(n) * n - v;
         assert!(seed.dot(n) < 0.0);
         // The mirror about the plane (e = 1, μ = 0) bounces it out.

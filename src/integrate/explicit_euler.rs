@@ -1,13 +1,13 @@
 use bevy::math::Vec3;
 
-/// The seed's explicit Euler (seed eq. 6, MODEL.md §6.1), exactly as written:
+/// The paper's explicit Euler (paper eq. 6, MODEL.md §6.1), exactly as written:
 ///
 /// `v⁺ = v + a(x, v)·dt`, `x⁺ = x + v·dt` with the **old** velocity.
 ///
 /// This is also Lander's `EulerIntegrate`. Its local error is `O(dt²)` and
-/// its global error `O(dt)` (the seed's "O(dt²)" is the local one). For a
+/// its global error `O(dt)` (the paper's "O(dt²)" is the local one). For a
 /// damped mode `ẍ = −ω²x − cẋ` it is stable only while `dt ≤ c/ω²`, and for
-/// `c = 0` never: that bound, not accuracy, is why the seed measured a 64×
+/// `c = 0` never: that bound, not accuracy, is why the paper measured a 64×
 /// smaller step for Euler than for RK4. Use [`symplectic_euler`](super::symplectic_euler)
 /// for the same cost without the bound.
 ///

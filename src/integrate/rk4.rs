@@ -9,11 +9,11 @@ use super::StepBuffers;
 /// `k₃` likewise from `k₂`, `k₄` with a full `dt` from `k₃`, then
 /// `x⁺ = x + dt/6·(k₁ˣ + 2k₂ˣ + 2k₃ˣ + k₄ˣ)` and the same for `v`.
 ///
-/// Where the seed differs, and why this code does:
-/// - the seed's `kx_i` already contain `dt` and it multiplies their sum by
+/// Where the paper differs, and why this code does:
+/// - the paper's `kx_i` already contain `dt` and it multiplies their sum by
 ///   `dt` again, so positions would advance by `v·dt²`: the sum here is
 ///   multiplied by `dt` once;
-/// - the seed evaluates the damping of every stage at the *old* velocity
+/// - the paper evaluates the damping of every stage at the *old* velocity
 ///   (`−c·v` instead of `−c·(v + ½kv₁)` and so on): here every stage calls
 ///   the full acceleration at its own stage velocity, so velocity-dependent
 ///   forces are fourth-order too.

@@ -4,7 +4,7 @@ use bevy::math::Vec3;
 ///
 /// `v⁺ = v + a(x, v)·dt`, `x⁺ = x + v⁺·dt` with the **new** velocity.
 ///
-/// One force evaluation, like the seed's explicit Euler, but stable for
+/// One force evaluation, like the paper's explicit Euler, but stable for
 /// `dt ≤ (√(c² + 4ω²) − c)/ω² ≈ 2/ω_max` instead of `c/ω²`. First order.
 ///
 /// `x` in m, `v` in m/s, `dt` in s; `a` is scratch of one `Vec3` per particle.

@@ -1,11 +1,11 @@
 //! Choi–Ko's "immediate buckling" connections (MODEL.md §2–§3).
 //!
 //! - **Type 1** ([`type1_forces`]): a tension-only spring, `F_a = k(ℓ − L)u`
-//!   for `ℓ ≥ L` and 0 otherwise (seed eq. 1).
+//!   for `ℓ ≥ L` and 0 otherwise (paper eq. 1).
 //! - **Type 2** ([`type2_forces`]): a compressed strip buckles at once into a
-//!   circular arc of length `L`; the force is `f_b = (k_b/L²)·g(ℓ/L)` (seed
+//!   circular arc of length `L`; the force is `f_b = (k_b/L²)·g(ℓ/L)` (paper
 //!   eq. 2–3 in the normalised form of MODEL.md §3.3), clamped to the linear
-//!   pre-buckling ramp `f_b* = max(f_b, c_b(ℓ − L))` (seed eq. 4), zero for
+//!   pre-buckling ramp `f_b* = max(f_b, c_b(ℓ − L))` (paper eq. 4), zero for
 //!   `ℓ ≥ L` and skipped for `ℓ < 10⁻⁹` m where the direction is undefined.
 //!
 //! One table of `g(s)` and `g'(s)` on `s ∈ [0, 1]` ([`BucklingTable`])
@@ -79,8 +79,8 @@ pub fn g_of_theta(theta: f64) -> (f64, f64) {
 /// linear table on `s_k = k/1024` (errors 2.6·10⁻⁶ and 10⁻⁵); the pieces
 /// are as accurate and fill ten AVX-512 vectors, so the force streams look
 /// `g` up with five permutes of whole vectors instead of gathers
-/// (gathers took about a tenth of a 15×15 RK4 step on this project's
-/// machine).
+/// (gathers take about a tenth of a 15×15 RK4 step on a 2-core x86-64
+/// with AVX-512).
 #[derive(Clone, Debug)]
 pub struct BucklingTable {
     /// `coefficients[j][k]`: the coefficient of `t^j` of piece `k`, with

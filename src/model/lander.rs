@@ -1,4 +1,4 @@
-//! Lander's spring cloth, the seed's baseline (MODEL.md §7).
+//! Lander's spring cloth, the paper's baseline (MODEL.md §7).
 //!
 //! Every spring is Hookean in both directions and carries its own damping:
 //! `F_a = [k_s(ℓ − L) + k_d (v_ab·u)]·u`, `F_b = −F_a`. Structural (±1 axial),

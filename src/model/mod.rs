@@ -1,8 +1,8 @@
 //! Force models as plain functions over slices: no ECS types here.
 //!
 //! - [`choi_ko`]: Type 1 tension-only springs and Type 2 buckling links.
-//! - [`lander`]: two-sided damped springs (the seed's baseline).
-//! - [`Dynamics::accelerations`]: seed eq. 5, `a = M⁻¹F + g − c·v`, with
+//! - [`lander`]: two-sided damped springs (the paper's baseline).
+//! - [`Dynamics::accelerations`]: paper eq. 5, `a = M⁻¹F + g − c·v`, with
 //!   pinned particles (inverse mass 0) held at zero acceleration.
 
 pub mod bands;

@@ -317,7 +317,7 @@ impl ForceStreams {
     }
 
     /// [`Self::streamed`] compiled for AVX-512's sixteen-lane vectors: 12 %
-    /// off the forces of a 15×15 cloth over AVX2 on this project's machine.
+    /// off the forces of a 15×15 cloth over AVX2 on a 2-core x86-64.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx512f")]
     fn streamed_avx512(&mut self, e: Eval, out: &mut [Vec3]) {

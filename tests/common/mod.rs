@@ -8,14 +8,15 @@ use bevy_cloth::integrate::StepBuffers;
 use bevy_cloth::prelude::*;
 use bevy_cloth::step::{ClothStats, step_cloth};
 
-/// The seed's scene (MODEL.md §10.2, §11): an `n × n`, 1 m cotton cloth
+/// The paper's scene (MODEL.md §10.2, §11): an `n × n`, 1 m cotton cloth
 /// standing in the XY plane, row 0 at y = 2 m, pinned at its two top corners.
 pub fn hanging(n: u32) -> ClothBundle {
-    bevy_cloth::accuracy::scene(n)
+    bevy_cloth::lab::accuracy::scene(n)
 }
 
 /// An app whose every `update()` after the first runs exactly one 60 Hz
-/// fixed step (DESIGN.md §8 recipe); the first update is already done.
+/// fixed step (`TimeUpdateStrategy::FixedTimesteps`); the first update is
+/// already done.
 pub fn app() -> App {
     let mut app = App::new();
     app.add_plugins((MinimalPlugins, TransformPlugin, ClothPlugin::default()))

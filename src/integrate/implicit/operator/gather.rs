@@ -116,7 +116,7 @@ impl Operator {
     }
 
     /// [`Operator::gather_avx512`] in AVX2 and FMA, eight particles at a
-    /// time, for the many CPUs without AVX-512: on this project's machine
+    /// time, for the many CPUs without AVX-512: on a 2-core x86-64
     /// 23–24.5 µs per 64×64 product against 30.4–31.2 µs for the scattered
     /// streams compiled for AVX2.
     #[cfg(target_arch = "x86_64")]

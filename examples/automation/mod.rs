@@ -1,5 +1,6 @@
-//! What every example shares: window, orbit camera, egui help overlay, and
-//! the automated mode used by the rendering check:
+//! The automation the rendering check needs, as one plugin an example adds
+//! with one line (`.add_plugins(automation::AutomationPlugin)`); delete
+//! that line and the example runs the same, by hand.
 //!
 //! `--frames N` runs N frames and exits; `--screenshot PATH` saves the last
 //! frame to PATH (through Bevy's `Screenshot`) before exiting; `--press K:F`
@@ -7,36 +8,47 @@
 //! a scripted interaction can be checked; `--drag X0,Y0:X1,Y1@F` presses
 //! the primary mouse button at window pixel (X0, Y0) at frame F, moves to
 //! (X1, Y1) over ten frames and releases: a real pick and pull through
-//! Bevy's mesh picking (`--drag-shift` holds Shift meanwhile).
-#![allow(dead_code, reason = "each example uses a different subset")]
+//! Bevy's mesh picking (`--drag-shift` holds Shift meanwhile); `--no-panel`
+//! closes the cloth panel. Without arguments the plugin does nothing.
 
 use std::path::PathBuf;
 
 use bevy::input::ButtonState;
 use bevy::input::mouse::MouseButtonInput;
-use bevy::picking::hover::HoverMap;
-use bevy::picking::mesh_picking::MeshPickingPlugin;
 use bevy::prelude::*;
 use bevy::render::view::screenshot::{Screenshot, ScreenshotCaptured, save_to_disk};
 use bevy::window::{CursorMoved, PrimaryWindow, WindowEvent};
-use bevy_cloth::panel::ClothPanelPlugin;
+use bevy_cloth::panel::ClothPanel;
 use bevy_cloth::picking::PointerGrabs;
-use bevy_cloth::prelude::*;
-use bevy_egui::input::EguiWantsInput;
-use bevy_egui::{EguiContexts, EguiPlugin, EguiPrimaryContextPass, egui};
-use bevy_panorbit_camera::{PanOrbitCamera, PanOrbitCameraPlugin, PanOrbitCameraSystemSet};
 
-/// Window, camera control, cloth, egui and automation for an example.
-pub struct ExamplePlugin {
-    /// Window title.
-    pub title: &'static str,
-    /// The help line shown on screen.
-    pub help: &'static str,
+/// Reads the command line and plays its script.
+pub struct AutomationPlugin;
+
+impl Plugin for AutomationPlugin {
+    fn build(&self, app: &mut App) {
+        let automation = Automation::from_args();
+        if !automation.active() {
+            return;
+        }
+        app.insert_resource(automation);
+        add_systems(app);
+    }
 }
 
-/// The example's help line.
-#[derive(Resource)]
-pub struct Help(pub &'static str);
+/// The systems that play an [`Automation`] resource's script.
+pub fn add_systems(app: &mut App) {
+    app.add_systems(Startup, close_panel)
+        .add_systems(Update, (automate, report_grab))
+        .add_systems(PreUpdate, scripted_keys.after(bevy::input::InputSystems))
+        .add_systems(First, scripted_drag);
+}
+
+/// `--no-panel`: the cloth panel stays closed.
+fn close_panel(auto: Res<Automation>, panel: Option<ResMut<ClothPanel>>) {
+    if let (true, Some(mut panel)) = (auto.no_panel, panel) {
+        panel.open = false;
+    }
+}
 
 /// Command-line automation (`--frames`, `--screenshot`).
 #[derive(Resource, Debug, Default)]
@@ -84,9 +96,9 @@ impl Automation {
         out
     }
 
-    /// Whether the example runs unattended.
+    /// Whether the command line asks for anything.
     pub fn active(&self) -> bool {
-        self.frames.is_some()
+        self.frames.is_some() || !self.presses.is_empty() || self.drag.is_some() || self.no_panel
     }
 }
 
@@ -157,131 +169,6 @@ fn parse_press(s: &str) -> Option<(KeyCode, u32)> {
         _ => return None,
     };
     Some((code, frame.parse().ok()?))
-}
-
-impl Plugin for ExamplePlugin {
-    fn build(&self, app: &mut App) {
-        let automation = Automation::from_args();
-        let panel = !automation.no_panel;
-        app.add_plugins(DefaultPlugins.set(WindowPlugin {
-            primary_window: Some(Window {
-                title: self.title.into(),
-                resolution: (1024u32, 640u32).into(),
-                ..default()
-            }),
-            ..default()
-        }))
-        .add_plugins((
-            EguiPlugin::default(),
-            PanOrbitCameraPlugin,
-            MeshPickingPlugin,
-            ClothPlugin::default(),
-        ))
-        .insert_resource(Help(self.help))
-        .insert_resource(automation)
-        .add_systems(EguiPrimaryContextPass, help_overlay)
-        .add_systems(Update, automate)
-        .add_systems(PreUpdate, scripted_keys.after(bevy::input::InputSystems))
-        .add_systems(PostUpdate, block_camera.before(PanOrbitCameraSystemSet))
-        .add_systems(First, scripted_drag)
-        .add_systems(Update, report_grab);
-        if panel {
-            app.add_plugins(ClothPanelPlugin);
-        }
-    }
-}
-
-/// A camera orbiting `focus` at `radius` metres, plus a sun with shadows and
-/// a ground plane at y = 0.
-pub fn spawn_stage(
-    commands: &mut Commands,
-    meshes: &mut Assets<Mesh>,
-    materials: &mut Assets<StandardMaterial>,
-    focus: Vec3,
-    radius: f32,
-) {
-    commands.spawn((
-        Camera3d::default(),
-        Transform::from_translation(focus + Vec3::new(0.6, 0.35, 1.0).normalize() * radius)
-            .looking_at(focus, Vec3::Y),
-        PanOrbitCamera {
-            focus,
-            radius: Some(radius),
-            yaw: Some(0.5),
-            pitch: Some(0.3),
-            ..default()
-        },
-    ));
-    commands.spawn((
-        DirectionalLight {
-            illuminance: 9_000.0,
-            shadow_maps_enabled: true,
-            ..default()
-        },
-        Transform::from_xyz(3.0, 6.0, 4.0).looking_at(Vec3::ZERO, Vec3::Y),
-    ));
-    commands.spawn((
-        Mesh3d(meshes.add(Plane3d::default().mesh().size(12.0, 12.0))),
-        MeshMaterial3d(materials.add(StandardMaterial {
-            base_color: Color::srgb(0.55, 0.58, 0.52),
-            perceptual_roughness: 1.0,
-            ..default()
-        })),
-    ));
-}
-
-/// The help line and the first cloth's live figures, top left.
-fn help_overlay(
-    mut contexts: EguiContexts,
-    help: Res<Help>,
-    defaults: Res<ClothDefaults>,
-    cloths: Query<(&ClothStats, Option<&ClothSettings>)>,
-) -> Result {
-    let ctx = contexts.ctx_mut()?;
-    egui::Area::new(egui::Id::new("help"))
-        .anchor(egui::Align2::LEFT_TOP, egui::vec2(10.0, 10.0))
-        .show(ctx, |ui| {
-            egui::Frame::popup(ui.style()).show(ui, |ui| {
-                ui.label(egui::RichText::new(help.0).strong());
-                for (stats, own) in &cloths {
-                    let s = own.unwrap_or(&defaults);
-                    ui.label(format!(
-                        "{:?} · {:?} × {} substeps · step {} · max strain {:.2}% · kinetic {:.2} mJ",
-                        s.model,
-                        stats.integrator,
-                        stats.substeps,
-                        stats.steps,
-                        100.0 * stats.max_strain,
-                        1e3 * stats.kinetic_energy
-                    ));
-                }
-            });
-        });
-    Ok(())
-}
-
-/// The orbit camera ignores the mouse while egui uses it, while the pointer
-/// is over a cloth (a press there grabs the cloth) and while a cloth is held.
-fn block_camera(
-    wants: Res<EguiWantsInput>,
-    hovers: Res<HoverMap>,
-    held: Res<PointerGrabs>,
-    cloths: Query<(), With<Cloth>>,
-    mut cameras: Query<&mut PanOrbitCamera>,
-) {
-    let over_cloth = hovers
-        .values()
-        .flat_map(|hits| hits.keys())
-        .any(|e| cloths.contains(*e));
-    let free = !(wants.wants_pointer_input()
-        || wants.is_pointer_over_area()
-        || over_cloth
-        || held.active());
-    for mut camera in &mut cameras {
-        if camera.enabled != free {
-            camera.enabled = free;
-        }
-    }
 }
 
 /// Plays the `--drag` script as window events (cursor moves and left

@@ -1,9 +1,9 @@
-//! The seed's §6.2 comparison, measured: the same scripted pull and release
+//! The paper's §6.2 comparison, measured: the same scripted pull and release
 //! on Choi–Ko's and Lander's cloth at the same step, and how much each
 //! still moves afterwards (MODEL.md §10.3: "Lander's cloth oscillates more
 //! under mouse dragging … and keeps unnatural wrinkles").
 //!
-//! **Script**: the seed's scene (15×15 cotton, MODEL.md §11, hanging from
+//! **Script**: the paper's scene (15×15 cotton, MODEL.md §11, hanging from
 //! two corners) settles for 1 s; its free bottom-left corner is grabbed and
 //! carried 0.4 m out of the cloth's plane over 0.5 s, held 0.5 s, and let go.
 //! Both models use RK4 at 5·10⁻⁴ s (inside both stable steps) and the same
@@ -17,9 +17,9 @@
 
 use bevy::math::Vec3;
 
-use crate::accuracy::scene;
 use crate::cloth::Cloth;
 use crate::integrate::StepBuffers;
+use crate::lab::accuracy::scene;
 use crate::settings::{ClothModel, ClothSettings, Integrator};
 use crate::step::step_cloth;
 

@@ -1,5 +1,5 @@
 //! What accuracy costs in time: the measurements behind the `accuracy`
-//! example (and its test), as plain functions over the seed's scene.
+//! example (and its test), as plain functions over the paper's scene.
 //!
 //! **Scene** (seed §6.1, MODEL.md §10.2): an `n × n`, 1 m cloth standing in
 //! a vertical plane, pinned at its two top corners, at rest at its rest
@@ -39,7 +39,7 @@ pub const SEARCH: (f32, f32) = (1e-6, 0.2);
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Preset {
     /// MODEL.md §10, preset S: k = 3.6 N/m, c = 9.6 s⁻¹, 0.15 kg/m², no pair
-    /// damping: reproduces the seed's step limits within about 20 %.
+    /// damping: reproduces the paper's step limits within about 20 %.
     Seed,
     /// MODEL.md §11: mid-weight cotton (k = 1000 N/m, c = 2 s⁻¹).
     Cotton,
@@ -72,7 +72,7 @@ impl Preset {
         s
     }
 
-    /// Largest Type 1 strain a stable run may show: the seed's soft cloth
+    /// Largest Type 1 strain a stable run may show: the paper's soft cloth
     /// legitimately stretches about 110 % at its pins (MODEL.md §10).
     pub fn strain_bound(self) -> f32 {
         match self {
@@ -90,7 +90,7 @@ impl Preset {
     }
 }
 
-/// The seed's scene with `grid × grid` particles (grids under 3 are taken
+/// The paper's scene with `grid × grid` particles (grids under 3 are taken
 /// as 3, above 1024 as 1024).
 pub fn scene(grid: u32) -> ClothBundle {
     let grid = grid.clamp(3, 1024);
