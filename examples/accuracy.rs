@@ -1,4 +1,4 @@
-//! What accuracy costs in time (seed §6.1, MODEL.md §10): for every model ×
+//! What accuracy costs in time (paper §6.1, MODEL.md §10): for every model ×
 //! integrator, the time per step, the largest stable step on the paper's
 //! scene, the error against a fine RK4 reference at common steps, and the
 //! cost per simulated second. Headless.

@@ -1,4 +1,4 @@
-//! Creases drawn with the mouse (seed §5, MODEL.md §9): a pale blue, paper-like napkin
+//! Creases drawn with the mouse (paper §5, MODEL.md §9): a pale blue, paper-like napkin
 //! on a table. Hold `Shift` and drag across it to draw a fold line; the
 //! panel sets the next crease's ratio or angle and its side, lists the
 //! creases and deletes them.

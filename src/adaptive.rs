@@ -48,35 +48,13 @@
 //! One pass over the links per fixed step, so it follows every change.
 
 use bevy::math::Vec3;
-use bevy::prelude::Reflect;
 
 use crate::connections::{ClothConnections, Link};
-use crate::model::choi_ko::{BUCKLING_TABLE, MIN_LENGTH, type2_magnitude};
+use crate::model::choi_ko::{MIN_LENGTH, type2_magnitude};
+use crate::model::kernel::Law;
 use crate::particles::ClothParticles;
-use crate::settings::{ClothModel, ClothSettings, Integrator};
-
-/// Adaptive substeps, on by default ([`ClothSettings::adaptive`]).
-///
-/// With it, an explicit integrator runs `max(substeps, n)` substeps, `n`
-/// being the fewest that keep each substep within `safety` times its
-/// stability bound (module docs); set [`ClothSettings::substeps`] to 1 to
-/// let the estimate decide alone. Implicit integrators are unaffected.
-#[derive(Clone, Copy, Debug, PartialEq, Reflect)]
-pub struct AdaptiveSubsteps {
-    /// Fraction of the stability bound a substep may use, in (0, 1].
-    pub safety: f32,
-    /// Most substeps per fixed step, whatever the estimate asks.
-    pub max_substeps: u32,
-}
-
-impl Default for AdaptiveSubsteps {
-    fn default() -> Self {
-        Self {
-            safety: 0.9,
-            max_substeps: 4096,
-        }
-    }
-}
+pub use crate::settings::AdaptiveSubsteps;
+use crate::settings::{ClothSettings, Integrator};
 
 /// The cloth's stiffest mode, as bounded by [`stiffest_mode`].
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -152,56 +130,40 @@ pub fn stiffest_mode(
             ratio = ratio.min(d.max(0.0) / k);
         }
     };
-    match settings.model {
-        ClothModel::ChoiKo => {
-            let p = &settings.choi_ko;
-            let kd = p.pair_damping;
-            for (links, k) in [
-                (&connections.structural, p.stiffness),
-                (&connections.shear, p.shear_stiffness),
-                (&connections.crease, p.stiffness),
-            ] {
-                if !links.is_empty() {
-                    damped(k, kd);
-                }
-                for l in links.iter() {
-                    let taut = length(x, l).filter(|&len| len > l.rest_length);
-                    let u = taut.map_or(0.0, |len| geometric(l, len, k));
-                    add_link(sums, w, l, k, kd, u);
-                }
-            }
-            let (kb, cb) = (p.bending_rigidity, p.buckling_slope);
-            let curve = 12.0 * std::f32::consts::PI.powi(2) * kb;
-            for links in [&connections.bend, &connections.bend_diagonal] {
-                for l in links.iter() {
-                    let rest = l.rest_length.max(MIN_LENGTH);
-                    let stiffest = cb.max(curve / (rest * rest * rest));
-                    // Its push over its length, plus its slope once buckled.
-                    let u = length(x, l).map_or(0.0, |len| {
-                        let (f, slope) = type2_magnitude(&BUCKLING_TABLE, len, rest, kb, cb);
-                        let slope = if slope == cb { 0.0 } else { slope.abs() };
-                        f.abs() / len.max(MIN_LENGTH) + slope
-                    });
-                    add_link(sums, w, l, stiffest, 0.0, u);
-                }
-            }
+    // The force-law table: the stretching families first, then the
+    // buckling ones.
+    let laws = crate::model::laws(settings, connections);
+    for (links, law) in laws.clone() {
+        let (k, kd, tension_only) = match law {
+            Law::Tension { k, kd } => (k, kd, true),
+            Law::Spring { ks, kd } => (ks, kd, false),
+            Law::Buckling { .. } => continue,
+        };
+        if !links.is_empty() {
+            damped(k, kd);
         }
-        ClothModel::Lander => {
-            let p = &settings.lander;
-            for (links, s) in [
-                (&connections.structural, p.structural),
-                (&connections.shear, p.shear),
-                (&connections.bend, p.bend),
-                (&connections.crease, p.structural),
-            ] {
-                if !links.is_empty() {
-                    damped(s.stiffness, s.damping);
-                }
-                for l in links.iter() {
-                    let u = length(x, l).map_or(0.0, |len| geometric(l, len, s.stiffness));
-                    add_link(sums, w, l, s.stiffness, s.damping, u);
-                }
-            }
+        for l in links {
+            // A slack tension-only link has no geometric stiffness.
+            let len = length(x, l).filter(|&len| !tension_only || len > l.rest_length);
+            let u = len.map_or(0.0, |len| geometric(l, len, k));
+            add_link(sums, w, l, k, kd, u);
+        }
+    }
+    for (links, law) in laws {
+        let Law::Buckling { table, kb, cb } = law else {
+            continue;
+        };
+        let curve = 12.0 * std::f32::consts::PI.powi(2) * kb;
+        for l in links {
+            let rest = l.rest_length.max(MIN_LENGTH);
+            let stiffest = cb.max(curve / (rest * rest * rest));
+            // Its push over its length, plus its slope once buckled.
+            let u = length(x, l).map_or(0.0, |len| {
+                let (f, slope) = type2_magnitude(table, len, rest, kb, cb);
+                let slope = if slope == cb { 0.0 } else { slope.abs() };
+                f.abs() / len.max(MIN_LENGTH) + slope
+            });
+            add_link(sums, w, l, stiffest, 0.0, u);
         }
     }
     // A fold term pushes its hinge against its two ends: count it on all three.

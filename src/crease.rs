@@ -1,4 +1,4 @@
-//! Creases (seed §5, MODEL.md §9): a fold line in the cloth's rest
+//! Creases (paper §5, MODEL.md §9): a fold line in the cloth's rest
 //! coordinates shortens the Type 2 connections that cross it and adds a
 //! Type 1 tension spring of the new length across each, so the cloth folds
 //! there and stays folded.
@@ -36,8 +36,9 @@
 use bevy::math::Vec2;
 use bevy::prelude::*;
 
-use crate::cloth::{Cloth, ClothError};
 use crate::connections::{ClothConnections, FoldTriple, Link, LinkFamily};
+use crate::error::ClothError;
+use crate::grid::Cloth;
 
 /// Which way a crease folds.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Reflect)]

@@ -54,52 +54,9 @@ use crate::integrate::implicit::newton_correction;
 use crate::model::Dynamics;
 use crate::particles::ClothParticles;
 use crate::settings::{ClothSettings, Integrator, MAX_SUBSTEPS};
+pub use crate::settings::{Fallback, GuardSettings};
 use crate::step::{ContactHook, Substep, step_cloth_with};
 use crate::team::{self, SPLIT_PARTICLES};
-
-/// What the guard's last retry changes.
-#[derive(Clone, Copy, Debug, PartialEq, Reflect)]
-pub enum Fallback {
-    /// Only more substeps: every retry doubles them (up to the limit).
-    MoreSubsteps,
-    /// The last retry switches to this integrator (the earlier ones double
-    /// the substeps). An implicit one makes the last retry stable at any
-    /// step.
-    Integrator(Integrator),
-}
-
-/// Bounds of the divergence guard.
-#[derive(Clone, Copy, Debug, PartialEq, Reflect)]
-pub struct GuardSettings {
-    /// Whether the guard checks at all.
-    pub enabled: bool,
-    /// Largest Type 1 strain `(ℓ − L)/L` allowed (dimensionless; 3 = 300 %,
-    /// beyond any real cloth but well short of a blow-up).
-    pub max_strain: f32,
-    /// Largest speed of a free particle, m/s.
-    pub max_speed: f32,
-    /// Retries per fixed step.
-    pub retries: u32,
-    /// The guard never runs more than this many times the substeps the
-    /// cloth asked for, so a trip more substeps cannot cure cannot make the
-    /// cost run away.
-    pub max_boost: u32,
-    /// What the last retry changes.
-    pub fallback: Fallback,
-}
-
-impl Default for GuardSettings {
-    fn default() -> Self {
-        Self {
-            enabled: true,
-            max_strain: 3.0,
-            max_speed: 200.0,
-            retries: 3,
-            max_boost: 16,
-            fallback: Fallback::Integrator(Integrator::BackwardEuler),
-        }
-    }
-}
 
 /// Why the guard tripped.
 #[derive(Clone, Copy, Debug, PartialEq, Reflect)]

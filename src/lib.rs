@@ -83,7 +83,9 @@ pub mod crease;
 #[cfg(feature = "debug")]
 pub mod debug;
 pub mod diagnostics;
+pub mod error;
 pub mod events;
+pub mod grid;
 pub mod guard;
 pub mod integrate;
 pub mod interaction;
@@ -99,6 +101,7 @@ pub mod picking;
 pub mod pose;
 pub mod schedule;
 pub mod settings;
+pub mod simd;
 mod soa;
 pub mod step;
 mod systems;
@@ -154,6 +157,19 @@ pub mod prelude {
 ///
 /// Needs Bevy's time (`MinimalPlugins` or `DefaultPlugins`); anchors need
 /// `TransformPlugin`; meshes need `Assets<Mesh>` (asset and mesh plugins).
+///
+/// ```no_run
+/// # use bevy::prelude::*;
+/// # use bevy_cloth::prelude::*;
+/// App::new()
+///     .add_plugins(DefaultPlugins)
+///     // Cloths drawn with a custom material, picked by another backend.
+///     .add_plugins(ClothPlugin {
+///         default_material: false,
+///         mesh_picking: false,
+///     })
+///     .run();
+/// ```
 #[derive(Clone, Debug)]
 pub struct ClothPlugin {
     /// With the `render` feature: give cloths that have no
@@ -183,6 +199,13 @@ impl Plugin for ClothPlugin {
             .register_type::<ClothDefaults>()
             .register_type::<ClothSettings>()
             .register_type::<Cloth>()
+            .register_required_components::<Cloth, bevy::transform::components::Transform>()
+            .register_required_components::<Cloth, ClothForces>()
+            .register_required_components::<Cloth, systems::ClothScratch>()
+            .register_required_components::<Cloth, ClothStats>()
+            .register_required_components::<Cloth, interaction::ClothGrabs>()
+            .register_required_components::<Cloth, ClothMaterial>()
+            .register_required_components::<Cloth, mesh::ClothPrevious>()
             .register_type::<ClothParticles>()
             .register_type::<ClothConnections>()
             .register_type::<ClothMaterial>()

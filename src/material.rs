@@ -44,7 +44,8 @@ use bevy::prelude::{
     Changed, Component, DetectChanges, Query, Ref, Reflect, ReflectComponent, ReflectDefault,
 };
 
-use crate::cloth::{Cloth, ClothError};
+use crate::error::ClothError;
+use crate::grid::Cloth;
 use crate::particles::ClothParticles;
 use crate::settings::ClothSettings;
 

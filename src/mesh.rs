@@ -33,10 +33,18 @@ use bevy::prelude::{
 };
 use bevy::time::Fixed;
 
-use crate::cloth::Cloth;
+use crate::grid::Cloth;
 use crate::particles::ClothParticles;
 
 /// How cloth meshes are drawn.
+///
+/// ```
+/// # use bevy::prelude::*;
+/// # use bevy_cloth::prelude::*;
+/// # let mut app = App::new();
+/// // Show each fixed step as it is, without interpolation.
+/// app.insert_resource(ClothMeshSettings { interpolate: false });
+/// ```
 #[derive(Resource, Clone, Debug, PartialEq, Reflect)]
 #[reflect(Resource)]
 pub struct ClothMeshSettings {

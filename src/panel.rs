@@ -15,8 +15,8 @@ use bevy::diagnostic::{DiagnosticPath, DiagnosticsStore};
 use bevy::prelude::*;
 use bevy_egui::{EguiContexts, EguiPrimaryContextPass, egui};
 
-use crate::cloth::Cloth;
 use crate::diagnostics::{KINETIC_ENERGY, MAX_STRAIN, SOLVER_ITERATIONS, STEP_TIME, SUBSTEPS};
+use crate::grid::Cloth;
 use crate::interaction::ClothGrabs;
 use crate::material::{ClothMaterial, Fabric};
 use crate::particles::ClothParticles;

@@ -74,11 +74,26 @@ impl PointerGrabs {
 /// Whether the mouse is busy with a cloth: over one (a press there grabs
 /// it) or holding a particle; with the `egui` feature, also whether an egui
 /// panel has it. A system parameter for camera controllers.
+///
+/// ```
+/// # use bevy::prelude::*;
+/// # use bevy_cloth::prelude::*;
+/// #[derive(Component)]
+/// struct MyOrbitCamera {
+///     enabled: bool,
+/// }
+///
+/// fn orbit_unless_on_cloth(pointer: ClothPointer, mut cameras: Query<&mut MyOrbitCamera>) {
+///     for mut camera in &mut cameras {
+///         camera.enabled = !pointer.busy();
+///     }
+/// }
+/// ```
 #[derive(SystemParam)]
 pub struct ClothPointer<'w, 's> {
     hovers: Option<Res<'w, HoverMap>>,
     held: Res<'w, PointerGrabs>,
-    cloths: Query<'w, 's, (), With<crate::cloth::Cloth>>,
+    cloths: Query<'w, 's, (), With<crate::grid::Cloth>>,
     #[cfg(feature = "egui")]
     egui: Option<Res<'w, bevy_egui::input::EguiWantsInput>>,
 }

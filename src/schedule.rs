@@ -56,6 +56,19 @@ pub enum ClothSystems {
 pub(crate) type MainThread = NonSendMarker;
 
 /// Pauses every cloth, or runs a given number of fixed steps while paused.
+///
+/// ```
+/// # use bevy::prelude::*;
+/// # use bevy_cloth::prelude::*;
+/// fn keys(keys: Res<ButtonInput<KeyCode>>, mut pause: ResMut<ClothPause>) {
+///     if keys.just_pressed(KeyCode::Space) {
+///         pause.paused = !pause.paused;
+///     }
+///     if keys.just_pressed(KeyCode::Period) {
+///         pause.steps += 1; // one step while paused
+///     }
+/// }
+/// ```
 #[derive(Resource, Clone, Debug, Default, PartialEq, Reflect)]
 #[reflect(Resource)]
 pub struct ClothPause {

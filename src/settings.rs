@@ -14,7 +14,7 @@ use bevy::prelude::{
 };
 use bevy::reflect::Reflect;
 
-use crate::cloth::ClothError;
+use crate::error::ClothError;
 
 /// Which internal force model a cloth uses.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Reflect)]
@@ -195,7 +195,7 @@ pub struct ChoiKoParams {
     /// Flexural rigidity `k_b` of the Type 2 links in N·m².
     pub bending_rigidity: f32,
     /// Slope `c_b` of the linear pre-buckling ramp in N/m (paper eq. 4; the
-    /// seed sets it to about `k`).
+    /// paper sets it to about `k`).
     pub buckling_slope: f32,
     /// Axial pair damping `k_d` on taut Type 1 links in N·s/m (MODEL.md §4);
     /// 0 turns it off.
@@ -253,6 +253,73 @@ impl Default for LanderParams {
     }
 }
 
+/// What the guard's last retry changes.
+#[derive(Clone, Copy, Debug, PartialEq, Reflect)]
+pub enum Fallback {
+    /// Only more substeps: every retry doubles them (up to the limit).
+    MoreSubsteps,
+    /// The last retry switches to this integrator (the earlier ones double
+    /// the substeps). An implicit one makes the last retry stable at any
+    /// step.
+    Integrator(Integrator),
+}
+
+/// Bounds of the divergence guard ([`guard`](crate::guard)).
+#[derive(Clone, Copy, Debug, PartialEq, Reflect)]
+pub struct GuardSettings {
+    /// Whether the guard checks at all.
+    pub enabled: bool,
+    /// Largest Type 1 strain `(ℓ − L)/L` allowed (dimensionless; 3 = 300 %,
+    /// beyond any real cloth but well short of a blow-up).
+    pub max_strain: f32,
+    /// Largest speed of a free particle, m/s.
+    pub max_speed: f32,
+    /// Retries per fixed step.
+    pub retries: u32,
+    /// The guard never runs more than this many times the substeps the
+    /// cloth asked for, so a trip more substeps cannot cure cannot make the
+    /// cost run away.
+    pub max_boost: u32,
+    /// What the last retry changes.
+    pub fallback: Fallback,
+}
+
+impl Default for GuardSettings {
+    fn default() -> Self {
+        Self {
+            enabled: true,
+            max_strain: 3.0,
+            max_speed: 200.0,
+            retries: 3,
+            max_boost: 16,
+            fallback: Fallback::Integrator(Integrator::BackwardEuler),
+        }
+    }
+}
+
+/// Adaptive substeps, on by default ([`ClothSettings::adaptive`]).
+///
+/// With it, an explicit integrator runs `max(substeps, n)` substeps, `n`
+/// being the fewest that keep each substep within `safety` times its
+/// stability bound ([`adaptive`](crate::adaptive) module docs); set [`ClothSettings::substeps`] to 1 to
+/// let the estimate decide alone. Implicit integrators are unaffected.
+#[derive(Clone, Copy, Debug, PartialEq, Reflect)]
+pub struct AdaptiveSubsteps {
+    /// Fraction of the stability bound a substep may use, in (0, 1].
+    pub safety: f32,
+    /// Most substeps per fixed step, whatever the estimate asks.
+    pub max_substeps: u32,
+}
+
+impl Default for AdaptiveSubsteps {
+    fn default() -> Self {
+        Self {
+            safety: 0.9,
+            max_substeps: 4096,
+        }
+    }
+}
+
 /// How a cloth is simulated: on a cloth entity, overrides [`ClothDefaults`].
 ///
 /// The default steps every cloth, of any size and material, once per fixed
@@ -260,6 +327,18 @@ impl Default for LanderParams {
 /// Choosing an explicit integrator (`with_integrator`) keeps
 /// [`adaptive`](Self::adaptive) substeps on, so the substep follows the
 /// cloth's stiffest mode and no stability bound needs computing by hand.
+///
+/// ```
+/// # use bevy::prelude::*;
+/// # use bevy_cloth::prelude::*;
+/// fn spawn(mut commands: Commands) -> Result<(), ClothError> {
+///     // BDF2, one step per fixed step, and a stronger gravity.
+///     let mut settings = ClothSettings::default().with_integrator(Integrator::Bdf2, 1);
+///     settings.gravity = Vec3::new(0.0, -12.0, 0.0);
+///     commands.spawn((ClothBuilder::new(32, 32).build()?, settings));
+///     Ok(())
+/// }
+/// ```
 #[derive(Component, Clone, Debug, PartialEq, Reflect)]
 #[reflect(Component, Default)]
 pub struct ClothSettings {
@@ -272,7 +351,7 @@ pub struct ClothSettings {
     pub substeps: u32,
     /// Gravitational acceleration in m/s².
     pub gravity: Vec3,
-    /// Absolute velocity damping `c` in s⁻¹: the acceleration `−c·v` of seed
+    /// Absolute velocity damping `c` in s⁻¹: the acceleration `−c·v` of the paper's
     /// eq. 5. Free-fall terminal speed is `|g|/c`.
     pub damping: f32,
     /// Constants of the Choi–Ko model.
@@ -282,14 +361,14 @@ pub struct ClothSettings {
     /// Linear solve of the implicit integrators.
     pub implicit: ImplicitParams,
     /// The divergence guard ([`guard`](crate::guard)).
-    pub guard: crate::guard::GuardSettings,
+    pub guard: GuardSettings,
     /// Whether the internal forces are evaluated in parallel bands.
     pub parallel: Parallelism,
     /// Adaptive substeps for the explicit integrators (on by default; the
     /// implicit ones ignore it): at least [`substeps`](Self::substeps), and
     /// as many more as the cloth's stiffest mode needs. `None` runs exactly
     /// [`substeps`](Self::substeps).
-    pub adaptive: Option<crate::adaptive::AdaptiveSubsteps>,
+    pub adaptive: Option<AdaptiveSubsteps>,
 }
 
 /// Whether a cloth's internal forces are evaluated in parallel row bands on
@@ -354,9 +433,9 @@ impl Default for ClothSettings {
             choi_ko: ChoiKoParams::default(),
             lander: LanderParams::default(),
             implicit: ImplicitParams::default(),
-            guard: crate::guard::GuardSettings::default(),
+            guard: GuardSettings::default(),
             parallel: Parallelism::Auto,
-            adaptive: Some(crate::adaptive::AdaptiveSubsteps::default()),
+            adaptive: Some(AdaptiveSubsteps::default()),
         }
     }
 }

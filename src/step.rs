@@ -35,37 +35,19 @@ impl ClothForces {
     }
 }
 
-/// Preallocated integrator scratch for one cloth (not reflected).
-#[derive(Component, Clone, Debug, Default)]
-pub struct ClothScratch {
-    /// Stage buffers of the integrators.
-    pub buffers: StepBuffers,
-    /// Indices of the scene colliders near this cloth in the current step.
-    pub(crate) near: Vec<usize>,
-    /// Whether the cloth was skipped for invalid settings, so the warning is
-    /// logged once.
-    pub(crate) warned_invalid: bool,
-    /// The divergence guard's state.
-    pub(crate) guard: crate::guard::GuardState,
-    /// A divergence to report at the end of the step: reason, substeps,
-    /// integrator, recovered.
-    pub(crate) pending: Option<(
-        crate::guard::Divergence,
-        u32,
-        crate::settings::Integrator,
-        bool,
-    )>,
-    /// Whether a divergence of this cloth was logged already.
-    pub(crate) warned_diverged: bool,
-    /// What the step measured that its writeback reuses.
-    pub(crate) measured: crate::systems::Measured,
-    /// The contact pass's masked inverse masses.
-    pub(crate) masked: Vec<f32>,
-    /// Whether the cloth is at rest, and for how long it has been calm.
-    pub(crate) rest: crate::events::RestTracker,
-}
-
 /// What the last fixed step of a cloth looked like.
+///
+/// ```
+/// # use bevy::prelude::*;
+/// # use bevy_cloth::prelude::*;
+/// fn report(cloths: Query<(Entity, &ClothStats)>) {
+///     for (cloth, stats) in &cloths {
+///         if stats.max_strain > 0.1 {
+///             info!("cloth {cloth} stretched {:.0} %", 100.0 * stats.max_strain);
+///         }
+///     }
+/// }
+/// ```
 #[derive(Component, Clone, Debug, Default, PartialEq, Reflect)]
 #[reflect(Component)]
 pub struct ClothStats {

@@ -6,12 +6,12 @@ use bevy::ecs::system::SystemChangeTick;
 use bevy::log::warn;
 use bevy::math::Vec3;
 use bevy::prelude::{
-    Commands, DetectChanges, Entity, MessageWriter, Query, Ref, Res, ResMut, Time,
+    Commands, Component, DetectChanges, Entity, MessageWriter, Query, Ref, Res, ResMut, Time,
 };
 use bevy::time::Fixed;
 
-use crate::cloth::ClothError;
 use crate::connections::ClothConnections;
+use crate::error::ClothError;
 use crate::particles::ClothParticles;
 use crate::settings::{ClothDefaults, ClothSettings};
 use bevy::platform::time::Instant;
@@ -19,15 +19,15 @@ use std::sync::atomic::{AtomicU64, Ordering};
 
 use bevy::ecs::query::QueryData;
 
-use crate::cloth::Cloth;
 use crate::collision::{
     ClothCollision, ClothCollisionStats, ClothSelfCollision, ColliderScene, SceneContacts,
     SelfCollisionScratch, bounds,
 };
 use crate::events::{ClothAtRest, ClothWoke, RestChange};
+use crate::grid::Cloth;
 use crate::guard::{ClothDiverged, step_guarded};
 use crate::interaction::ClothGrabs;
-use crate::step::{ClothForces, ClothScratch, ClothStats};
+use crate::step::{ClothForces, ClothStats};
 
 /// Checks what the step indexes so that user edits can never make it panic:
 /// equal array lengths, and every link inside the particle range.
@@ -88,6 +88,36 @@ impl Measured {
             .filter(|&(at, _)| !particles.last_changed().is_newer_than(at, now))
             .map(|(_, strain)| strain)
     }
+}
+
+/// Preallocated integrator scratch for one cloth (not reflected).
+#[derive(Component, Clone, Debug, Default)]
+pub struct ClothScratch {
+    /// Stage buffers of the integrators.
+    pub buffers: crate::integrate::StepBuffers,
+    /// Indices of the scene colliders near this cloth in the current step.
+    pub(crate) near: Vec<usize>,
+    /// Whether the cloth was skipped for invalid settings, so the warning is
+    /// logged once.
+    pub(crate) warned_invalid: bool,
+    /// The divergence guard's state.
+    pub(crate) guard: crate::guard::GuardState,
+    /// A divergence to report at the end of the step: reason, substeps,
+    /// integrator, recovered.
+    pub(crate) pending: Option<(
+        crate::guard::Divergence,
+        u32,
+        crate::settings::Integrator,
+        bool,
+    )>,
+    /// Whether a divergence of this cloth was logged already.
+    pub(crate) warned_diverged: bool,
+    /// What the step measured that its writeback reuses.
+    pub(crate) measured: Measured,
+    /// The contact pass's masked inverse masses.
+    pub(crate) masked: Vec<f32>,
+    /// Whether the cloth is at rest, and for how long it has been calm.
+    pub(crate) rest: crate::events::RestTracker,
 }
 
 /// What the step reads and writes of one cloth.

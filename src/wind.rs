@@ -19,7 +19,7 @@ use bevy::math::Vec3;
 use bevy::prelude::{Local, Query, Reflect, ReflectResource, Res, Resource, Time};
 use bevy::time::Fixed;
 
-use crate::cloth::Cloth;
+use crate::grid::Cloth;
 use crate::particles::ClothParticles;
 use crate::step::ClothForces;
 

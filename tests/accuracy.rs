@@ -1,5 +1,5 @@
 //! The accuracy example's measurements reproduce the paper's two headline
-//! ratios (seed §6.1, MODEL.md §10) on preset S, and its JSON lines parse.
+//! ratios (paper §6.1, MODEL.md §10) on preset S, and its JSON lines parse.
 //! Ratios are measured within one run, never absolute times.
 
 use bevy_cloth::lab::accuracy::{Plan, Preset, StableStep, measure, micros_per_step};

@@ -26,6 +26,10 @@
 //! **Only when needed**: with no `ClothCollider` in the world none of this
 //! runs, and self-collision runs only for cloths that ask for it.
 //! [`ClothCollisionStats`] counts what was done.
+//!
+//! Imports: the narrow phase imports the foundations (`error`, `grid`,
+//! `particles`) and the implicit solve's contact types; this file, the ECS
+//! side, also the schedule, poses and the step's [`ContactHook`].
 
 pub mod contact;
 pub mod narrow;
@@ -43,7 +47,8 @@ use bevy::mesh::Mesh;
 use bevy::prelude::*;
 use bevy::time::Fixed;
 
-use crate::cloth::{Cloth, ClothError};
+use crate::error::ClothError;
+use crate::grid::Cloth;
 use crate::integrate::implicit::{Hold, SolveContact};
 use crate::particles::ClothParticles;
 use crate::pose::WorldPose;
@@ -196,6 +201,17 @@ pub struct ColliderMotion {
 }
 
 /// Per-cloth collision settings.
+///
+/// ```
+/// # use bevy::prelude::*;
+/// # use bevy_cloth::prelude::*;
+/// fn spawn(mut commands: Commands) -> Result<(), ClothError> {
+///     // A thick felt kept 1 cm off every collider.
+///     let felt = ClothCollision { thickness: 0.01, ..default() };
+///     commands.spawn((ClothBuilder::new(24, 24).build()?, felt));
+///     Ok(())
+/// }
+/// ```
 #[derive(Component, Clone, Debug, PartialEq, Reflect)]
 #[reflect(Component, Default)]
 pub struct ClothCollision {
@@ -220,6 +236,16 @@ impl Default for ClothCollision {
 }
 
 /// Opts a cloth into self-collision (vertex–triangle proximity).
+///
+/// ```
+/// # use bevy::prelude::*;
+/// # use bevy_cloth::prelude::*;
+/// fn spawn(mut commands: Commands) -> Result<(), ClothError> {
+///     let towel = ClothBuilder::new(20, 20).build()?;
+///     commands.spawn((towel, ClothSelfCollision { thickness: 0.01 }));
+///     Ok(())
+/// }
+/// ```
 #[derive(Component, Clone, Debug, PartialEq, Reflect)]
 #[reflect(Component, Default)]
 #[require(SelfCollisionScratch)]

@@ -7,7 +7,7 @@ use bevy::math::Vec3;
 
 use super::contact::Counts;
 use super::trimesh::closest_point_on_triangle;
-use crate::cloth::Cloth;
+use crate::grid::Cloth;
 
 /// Reusable buffers of the spatial hash (no allocation once warm).
 #[derive(Clone, Debug, Default)]

@@ -5,7 +5,7 @@
 use bevy::math::{Vec3, bounding::Aabb3d};
 use bevy::mesh::{Indices, Mesh, VertexAttributeValues};
 
-use crate::cloth::ClothError;
+use crate::error::ClothError;
 
 /// Triangles per BVH leaf.
 const LEAF: usize = 4;

@@ -149,20 +149,14 @@ pub fn k_times(blocks: &[Block], w: &[Vec3], out: &mut [Vec3]) {
 /// warm start), and stops once `rᵀP⁻¹r ≤ ε² bᵀP⁻¹b` either way.
 /// Returns (iterations, relative residual).
 fn pcg(params: &ImplicitParams, buffers: &mut ImplicitBuffers) -> (u32, f32) {
-    #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("avx512f") {
-        // SAFETY: the CPU has AVX-512F, as checked on the line above.
-        return unsafe { pcg_avx512(params, buffers) };
-    }
-    pcg_inner(params, buffers)
+    // Compiled for the CPU's vectors, so that its vector updates, the
+    // preconditioner and the coarse correction run as wide as they can.
+    pcg_at(crate::simd::level(), params, buffers)
 }
 
-/// [`pcg`] compiled for AVX-512, so that its vector updates, the
-/// preconditioner and the coarse correction run sixteen lanes wide.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f")]
-fn pcg_avx512(params: &ImplicitParams, buffers: &mut ImplicitBuffers) -> (u32, f32) {
-    pcg_inner(params, buffers)
+crate::simd::multiversion! {
+    /// [`pcg_inner`] compiled for a SIMD level.
+    fn pcg_at(params: &ImplicitParams, buffers: &mut ImplicitBuffers) -> (u32, f32) = pcg_inner;
 }
 
 /// The body of [`pcg`], inlined into each of its builds.

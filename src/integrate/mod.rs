@@ -1,4 +1,7 @@
-//! Time integrators as plain functions over slices: no ECS types here.
+//! Time integrators as plain functions over slices. The folder imports the
+//! force models (`model`), the foundations (`settings`, `connections`,
+//! `soa`, `simd`, `team`) and `adaptive`, and nothing that schedules a
+//! cloth.
 //!
 //! Each integrator advances positions `x` (m) and velocities `v` (m/s) by one
 //! step `dt` (s), calling `accel(x, v, out)` to get accelerations (m/s²) as
@@ -125,29 +128,35 @@ pub(crate) fn step_synced(
     dt: f32,
     buffers: &mut StepBuffers,
 ) {
-    #[cfg(target_arch = "x86_64")]
-    if !integrator.is_implicit() && std::arch::is_x86_feature_detected!("avx512f") {
-        // SAFETY: the CPU has AVX-512F, as checked on the line above.
-        return unsafe { explicit_avx512(integrator, dynamics, x, v, dt, buffers) };
+    if !integrator.is_implicit() {
+        // Compiled for the CPU's vectors, so that the explicit integrators'
+        // stage updates and the accelerations' last pass run sixteen lanes
+        // wide on AVX-512 (the crate is otherwise built for baseline
+        // x86-64's four): about 3 % off a 15×15 RK4 or explicit Euler step
+        // on a 2-core x86-64 with AVX-512.
+        return explicit_at(
+            crate::simd::level(),
+            integrator,
+            dynamics,
+            x,
+            v,
+            dt,
+            buffers,
+        );
     }
     step_inner(integrator, dynamics, x, v, dt, buffers);
 }
 
-/// [`step_synced`] compiled for AVX-512, so that the explicit integrators'
-/// stage updates and the accelerations' last pass run sixteen lanes wide
-/// (the crate is otherwise built for baseline x86-64's four): about 3 %
-/// off a 15×15 RK4 or explicit Euler step on a 2-core x86-64 with AVX-512.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f")]
-fn explicit_avx512(
-    integrator: Integrator,
-    dynamics: &Dynamics,
-    x: &mut [Vec3],
-    v: &mut [Vec3],
-    dt: f32,
-    buffers: &mut StepBuffers,
-) {
-    step_inner(integrator, dynamics, x, v, dt, buffers);
+crate::simd::multiversion! {
+    /// [`step_inner`] compiled for a SIMD level.
+    fn explicit_at(
+        integrator: Integrator,
+        dynamics: &Dynamics,
+        x: &mut [Vec3],
+        v: &mut [Vec3],
+        dt: f32,
+        buffers: &mut StepBuffers,
+    ) = step_inner;
 }
 
 /// The body of [`step_synced`], inlined into each of its builds.

@@ -1,7 +1,7 @@
 //! What accuracy costs in time: the measurements behind the `accuracy`
 //! example (and its test), as plain functions over the paper's scene.
 //!
-//! **Scene** (seed §6.1, MODEL.md §10.2): an `n × n`, 1 m cloth standing in
+//! **Scene** (paper §6.1, MODEL.md §10.2): an `n × n`, 1 m cloth standing in
 //! a vertical plane, pinned at its two top corners, at rest at its rest
 //! lengths, then let go under gravity; no sphere.
 //!

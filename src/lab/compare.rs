@@ -17,7 +17,7 @@
 
 use bevy::math::Vec3;
 
-use crate::cloth::Cloth;
+use crate::grid::Cloth;
 use crate::integrate::StepBuffers;
 use crate::lab::accuracy::scene;
 use crate::settings::{ClothModel, ClothSettings, Integrator};

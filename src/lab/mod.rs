@@ -7,7 +7,8 @@
 //! - [`compare`]: the same scripted pull on Choi–Ko's and Lander's cloth.
 //!
 //! A game does not need these; they are public so that the `accuracy`
-//! example, the benches and the tests can share them.
+//! example, the benches and the tests can share them. They may import any
+//! module; outside tests, no module imports them.
 
 pub mod accuracy;
 pub mod compare;

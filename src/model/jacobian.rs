@@ -25,7 +25,7 @@ use super::choi_ko::{BUCKLING_TABLE, MIN_LENGTH, type2_magnitude};
 use super::kernel::Law;
 use super::streams::{ForceStreams, Linearisation};
 use crate::connections::{ClothConnections, Link};
-use crate::settings::{ClothModel, ClothSettings, Type2Jacobian};
+use crate::settings::{ClothSettings, Type2Jacobian};
 
 /// The Jacobian blocks of one connection, kept as the few numbers they are
 /// made of (32 bytes rather than two 3×3 matrices): with `P_u = u uᵀ` and
@@ -159,64 +159,22 @@ pub fn assemble(
     f.fill(Vec3::ZERO);
     blocks.clear();
     let full = settings.implicit.type2_jacobian == Type2Jacobian::Full;
-    match settings.model {
-        ClothModel::ChoiKo => {
-            let p = &settings.choi_ko;
-            for (links, k) in [
-                (&connections.structural, p.stiffness),
-                (&connections.shear, p.shear_stiffness),
-                (&connections.crease, p.stiffness),
-            ] {
-                stretch(
-                    links,
-                    (k, p.pair_damping),
-                    (false, full, keep_slack),
-                    x,
-                    v,
-                    f,
-                    blocks,
-                );
+    // The stretching families first, then the buckling ones.
+    let laws = super::laws(settings, connections);
+    for (links, law) in laws.clone() {
+        match law {
+            Law::Tension { k, kd } => {
+                stretch(links, (k, kd), (false, full, keep_slack), x, v, f, blocks)
             }
-            for links in [&connections.bend, &connections.bend_diagonal] {
-                buckle(
-                    links,
-                    p.bending_rigidity,
-                    p.buckling_slope,
-                    full,
-                    x,
-                    f,
-                    blocks,
-                );
+            Law::Spring { ks, kd } => {
+                stretch(links, (ks, kd), (true, full, false), x, v, f, blocks)
             }
+            Law::Buckling { .. } => {}
         }
-        ClothModel::Lander => {
-            let p = &settings.lander;
-            for (links, s) in [
-                (&connections.structural, p.structural),
-                (&connections.shear, p.shear),
-                (&connections.bend, p.bend),
-            ] {
-                stretch(
-                    links,
-                    (s.stiffness, s.damping),
-                    (true, full, false),
-                    x,
-                    v,
-                    f,
-                    blocks,
-                );
-            }
-            let s = p.structural;
-            let crease = &connections.crease;
-            stretch(
-                crease,
-                (s.stiffness, s.damping),
-                (false, full, keep_slack),
-                x,
-                v,
-                f,
-                blocks,
-            );
+    }
+    for (links, law) in laws {
+        if let Law::Buckling { kb, cb, .. } = law {
+            buckle(links, kb, cb, full, x, f, blocks);
         }
     }
     // The fold-direction term enters as a force only (no Jacobian block).
@@ -266,9 +224,10 @@ pub(crate) fn assemble_streamed(
             Law::Buckling { kb, cb, .. } => buckle(others, kb, cb, full, x, f, blocks),
         }
     }
-    let crease = &connections.crease;
-    let law = super::crease_constants(settings);
-    stretch(crease, law, (false, full, keep_slack), x, v, f, blocks);
+    if let Law::Tension { k, kd } = super::crease_law(settings) {
+        let crease = &connections.crease;
+        stretch(crease, (k, kd), (false, full, keep_slack), x, v, f, blocks);
+    }
     crate::connections::fold_forces(&connections.fold, x, f);
     add_k_times(blocks, w, kw);
 }
@@ -288,6 +247,7 @@ pub fn add_k_times(blocks: &[Block], w: &[Vec3], out: &mut [Vec3]) {
 mod tests {
     use super::*;
     use crate::model::internal_forces;
+    use crate::settings::ClothModel;
 
     fn grid(n: u32) -> (ClothConnections, Vec<Vec3>) {
         let rest: Vec<Vec3> = (0..n * n)

@@ -13,7 +13,7 @@
 
 use bevy::math::Vec3;
 
-use super::choi_ko::{BucklingTable, MIN_LENGTH, type2_magnitude};
+use super::buckling::{BucklingTable, MIN_LENGTH, type2_magnitude};
 use crate::connections::Link;
 
 /// The force law of a family of links.

@@ -1,4 +1,6 @@
-//! Force models as plain functions over slices: no ECS types here.
+//! Force models as plain functions over slices. The folder imports the
+//! foundations (`settings`, `connections`, `soa`, `simd`, `team`) and
+//! nothing that schedules or steps a cloth.
 //!
 //! - [`choi_ko`]: Type 1 tension-only springs and Type 2 buckling links.
 //! - [`lander`]: two-sided damped springs (the paper's baseline).
@@ -6,6 +8,7 @@
 //!   pinned particles (inverse mass 0) held at zero acceleration.
 
 pub mod bands;
+pub mod buckling;
 pub mod choi_ko;
 pub mod jacobian;
 pub mod kernel;
@@ -101,9 +104,31 @@ fn grid_forces(
     kernel::pair_forces(&laws[..count], x, v, out)
 }
 
+/// The force-law table: every family of links of `connections` with its
+/// law under `settings.model`, in a fixed order (structural, shear, bend,
+/// bend diagonal for Choi–Ko, then the crease springs). The forces, the
+/// Jacobians ([`jacobian`]) and the stiffness estimate
+/// ([`adaptive`](crate::adaptive)) all read it.
+///
+/// | family | Choi–Ko | Lander |
+/// |---|---|---|
+/// | structural | `Tension { k, k_d }` | `Spring` (structural) |
+/// | shear | `Tension { k_shear, k_d }` | `Spring` (shear) |
+/// | bend, bend diagonal | `Buckling { k_b, c_b }` | `Spring` (bend); no diagonal |
+/// | crease | `Tension { k, k_d }` | `Tension` (structural constants) |
+pub fn laws<'a>(
+    settings: &'a ClothSettings,
+    connections: &'a ClothConnections,
+) -> impl Iterator<Item = (&'a [Link], Law<'a>)> + Clone {
+    let (grid, count) = grid_laws(settings, grid_families(connections));
+    grid.into_iter()
+        .take(count)
+        .chain([(&connections.crease[..], crease_law(settings))])
+}
+
 /// The grid families of `settings.model` with their force laws: the first
 /// `count` entries of the array (Lander's cloth has no diagonal bend).
-fn grid_laws<'a>(
+pub(crate) fn grid_laws<'a>(
     settings: &'a ClothSettings,
     [structural, shear, bend, bend_diagonal]: [&'a [Link]; 4],
 ) -> ([(&'a [Link], Law<'a>); 4], usize) {
@@ -148,16 +173,17 @@ fn grid_laws<'a>(
     }
 }
 
-/// The stiffness `k` (N/m) and axial damping `k_d` (N·s/m) of crease
-/// springs: the Type 1 constants, or Lander's structural ones.
-fn crease_constants(settings: &ClothSettings) -> (f32, f32) {
-    match settings.model {
+/// The law of crease springs: tension only, with the Type 1 constants or
+/// Lander's structural ones (stiffness N/m, axial damping N·s/m).
+pub(crate) fn crease_law(settings: &ClothSettings) -> Law<'static> {
+    let (k, kd) = match settings.model {
         ClothModel::ChoiKo => (settings.choi_ko.stiffness, settings.choi_ko.pair_damping),
         ClothModel::Lander => {
             let s = settings.lander.structural;
             (s.stiffness, s.damping)
         }
-    }
+    };
+    Law::Tension { k, kd }
 }
 
 /// The forces of crease springs (Type 1 links of rest length L', MODEL.md
@@ -169,10 +195,9 @@ fn extra_forces(
     v: &[Vec3],
     f: &mut [Vec3],
 ) {
-    let (k, kd) = crease_constants(settings);
     let mut out = Target { f, base: 0 };
-    let tension = Law::Tension { k, kd };
-    kernel::pair_forces(&[(&connections.crease, tension)], x, v, &mut out);
+    let crease = crease_law(settings);
+    kernel::pair_forces(&[(&connections.crease, crease)], x, v, &mut out);
     crate::connections::fold_forces(&connections.fold, x, out.f);
 }
 

@@ -106,6 +106,11 @@ pub(super) struct Coarse {
     unusable: bool,
 }
 
+crate::simd::multiversion! {
+    /// [`Coarse::factor`] compiled for a SIMD level.
+    fn factor_at(this: &mut Coarse) -> bool = Coarse::factor;
+}
+
 impl Coarse {
     /// Starts the coarse operator of a step for a grid of `columns`
     /// particles per row, with the scaled masses `mass_scale / w` (kg;
@@ -246,31 +251,7 @@ impl Coarse {
         if self.unusable {
             return false;
         }
-        #[cfg(target_arch = "x86_64")]
-        if std::arch::is_x86_feature_detected!("avx512f") {
-            // SAFETY: the CPU has AVX-512F, as checked on the line above.
-            return unsafe { self.factor_avx512() };
-        } else if std::arch::is_x86_feature_detected!("avx2")
-            && std::arch::is_x86_feature_detected!("fma")
-        {
-            // SAFETY: the CPU has AVX2 and FMA, as checked just above.
-            return unsafe { self.factor_avx2() };
-        }
-        self.factor()
-    }
-
-    /// [`Coarse::factor`] compiled for AVX-512.
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx512f")]
-    fn factor_avx512(&mut self) -> bool {
-        self.factor()
-    }
-
-    /// [`Coarse::factor`] compiled for AVX2 and FMA.
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2,fma")]
-    fn factor_avx2(&mut self) -> bool {
-        self.factor()
+        factor_at(crate::simd::level(), self)
     }
 
     /// Where the unknowns of aggregate `a` go: the bands below the

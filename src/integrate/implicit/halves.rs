@@ -23,6 +23,7 @@ use std::ops::Range;
 
 use super::coarse::Coarse;
 use super::operator::{Operator, Soa, dot_parts};
+use crate::simd::{self, Level};
 use crate::team::{Claim, Team};
 
 /// Particles from which a grid cloth's solve is split between two threads.
@@ -86,13 +87,6 @@ impl Choice {
     }
 }
 
-/// Which product kernel the CPU runs.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum Kernel {
-    Avx512,
-    Avx2,
-}
-
 /// Where a solve's vectors are cut in two.
 #[derive(Clone, Copy, Debug)]
 pub(super) struct Halves {
@@ -100,7 +94,8 @@ pub(super) struct Halves {
     at: usize,
     /// The first band of aggregates of the upper half (with a coarse grid).
     band: usize,
-    kernel: Kernel,
+    /// The SIMD level of the gathered product (not scalar).
+    kernel: Level,
 }
 
 impl Halves {
@@ -139,19 +134,10 @@ impl Halves {
     }
 }
 
-/// The fastest product kernel of this CPU that can run on a range.
-fn kernel() -> Option<Kernel> {
-    #[cfg(target_arch = "x86_64")]
-    {
-        if std::arch::is_x86_feature_detected!("avx512f") {
-            return Some(Kernel::Avx512);
-        }
-        if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma")
-        {
-            return Some(Kernel::Avx2);
-        }
-    }
-    None
+/// The level of the gathered product on a range, if the kernels have one.
+fn kernel() -> Option<Level> {
+    let level = simd::level();
+    (level > Level::Scalar).then_some(level)
 }
 
 /// The vectors of one solve, shared by both threads. Each pass writes only
@@ -230,16 +216,9 @@ pub(super) fn iterate(
         start: (delta, delta0, tol2, max_iterations),
     };
     let result = claim.run(|team, part| {
-        // SAFETY: `Shared` holds what `body` needs, and the CPU has the
-        // kernel's features (`Halves::plan` checked).
-        match halves.kernel {
-            #[cfg(target_arch = "x86_64")]
-            Kernel::Avx512 => unsafe { body_avx512(&shared, team, part) },
-            #[cfg(target_arch = "x86_64")]
-            Kernel::Avx2 => unsafe { body_avx2(&shared, team, part) },
-            #[allow(unreachable_patterns)]
-            _ => unreachable!("`Halves::plan` gives a kernel of this CPU"),
-        }
+        // Compiled for the product's level. SAFETY: `Shared` holds what
+        // `body` needs.
+        unsafe { body_at(halves.kernel, &shared, team, part) }
     });
     op.put_padded(padded);
     if let (Some(c), Some(s)) = (coarse, scratch) {
@@ -248,18 +227,12 @@ pub(super) fn iterate(
     result
 }
 
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f")]
-unsafe fn body_avx512(s: &Shared, team: &Team, part: usize) -> (u32, f64) {
-    // SAFETY: as for `body`.
-    unsafe { body(s, team, part) }
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
-unsafe fn body_avx2(s: &Shared, team: &Team, part: usize) -> (u32, f64) {
-    // SAFETY: as for `body`.
-    unsafe { body(s, team, part) }
+simd::multiversion! {
+    /// [`body`] compiled for a SIMD level.
+    ///
+    /// # Safety
+    /// As for [`body`].
+    unsafe fn body_at(s: &Shared, team: &Team, part: usize) -> (u32, f64) = body;
 }
 
 /// Three component arrays' `range`, as slices.
@@ -297,21 +270,21 @@ unsafe fn body(s: &Shared, team: &Team, part: usize) -> (u32, f64) {
     // The padded arrays themselves, for the product: `padded` starts
     // `pad` values into them.
     // SAFETY: `iterate` offset the arrays' starts by `pad`.
-    let d_at = s.padded.map(|p| unsafe { p.cast_const().sub(s.op.pad()) });
+    let d_at = s.padded.map(|p| unsafe { p.sub(s.op.pad()) });
+    // What `check_padded` asserted the padded arrays hold.
+    let padded_len = s.n + 2 * s.op.pad() + simd::gather::LANES;
+    let product = s.op.product();
     let mut iterations = 0;
     while iterations < max_iterations && delta > tol2 * delta0 {
         // 1. q = A d over this half; every d is settled (barrier 3 below).
-        // SAFETY: `check_padded` held; `q`'s half is this thread's.
-        unsafe {
-            match kernel {
-                #[cfg(target_arch = "x86_64")]
-                Kernel::Avx512 => s.op.gather_range_avx512(d_at, s.q, own.clone()),
-                #[cfg(target_arch = "x86_64")]
-                Kernel::Avx2 => s.op.gather_range_avx2(d_at, s.q, own.clone()),
-                #[allow(unreachable_patterns)]
-                _ => unreachable!(),
-            }
-        }
+        let ran = {
+            // SAFETY: `check_padded` held for the padded arrays, which no
+            // one writes in this pass; `q`'s half is this thread's. The
+            // slices end with this block.
+            let (d_all, q_own) = unsafe { (slices(d_at, &(0..padded_len)), slices_mut(s.q, &own)) };
+            simd::gather::gather(kernel, &product, s.op.blocks(), d_all, q_own, own.clone())
+        };
+        debug_assert!(ran, "`Halves::plan` gives a level with a gathered product");
         // The contacts' diagonal blocks of this half.
         // SAFETY: this half of `q`, this thread's alone in this pass.
         unsafe {

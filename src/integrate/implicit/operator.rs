@@ -13,7 +13,7 @@
 //! stored component by component ([`Soa`]). A product then runs over
 //! contiguous arrays with no index lists: with AVX-512, sixteen particles
 //! at a time gather the terms of every stream in registers
-//! ([`Operator::gather_avx512`]), with AVX2 and FMA eight at a time;
+//! ([`simd::gather`](crate::simd::gather)), with AVX2 and FMA eight at a time;
 //! elsewhere each stream's products are formed and scattered to both ends
 //! in loops the compiler turns into SIMD. On a 64×64 cloth a product takes
 //! about 21 µs (23–24.5 µs in AVX2; 29 µs for the scattered streams of
@@ -31,10 +31,10 @@ use bevy::math::{Mat3, Vec3};
 use super::coarse::Coarse;
 use crate::model::jacobian::Block;
 use crate::model::streams::StreamBlocks;
+use crate::simd::gather::{Blocks, Product};
+use crate::simd::{self, Level};
 use crate::soa::Aligned;
 pub(super) use crate::soa::Soa;
-
-mod gather;
 
 /// `Σ aᵢ·bᵢ` in f64, summed in eight f32 lanes over runs short enough to
 /// keep six significant digits, so that the inner loop vectorises.
@@ -411,17 +411,49 @@ impl Operator {
 
     /// `out = A d` (filtered: pinned rows zero).
     pub fn apply(&mut self, d: &Soa, out: &mut Soa) {
-        #[cfg(target_arch = "x86_64")]
-        if std::arch::is_x86_feature_detected!("avx512f") {
-            // SAFETY: the CPU has AVX-512F, as checked on the line above.
-            return unsafe { self.gather_avx512(d, out) };
-        } else if std::arch::is_x86_feature_detected!("avx2")
-            && std::arch::is_x86_feature_detected!("fma")
-        {
-            // SAFETY: the CPU has AVX2 and FMA, as checked just above.
-            return unsafe { self.gather_avx2(d, out) };
+        self.apply_at(simd::level(), d, out);
+    }
+
+    /// [`Operator::apply`] with the kernels of `level`: gathered per
+    /// particle with AVX-512 (on a 64×64 cloth about 15 µs a product) or
+    /// AVX2 and FMA (23–24.5 µs), else scattered by stream (29–31 µs, on a
+    /// 2-core x86-64).
+    pub(super) fn apply_at(&mut self, level: Level, d: &Soa, out: &mut Soa) {
+        if level > Level::Scalar {
+            self.fill_padded(d);
+            let n = self.mass.len();
+            let padded = self.padded.0.each_ref().map(|c| &c[..]);
+            let rows = out.0.each_mut().map(|c| &mut c[..n]);
+            let (product, blocks) = (self.product(), self.blocks());
+            if simd::gather::gather(level, &product, blocks, padded, rows, 0..n) {
+                self.apply_others(d, out);
+                return;
+            }
         }
         self.apply_portable(d, out);
+    }
+
+    /// The masses, filter and pad, as the gathered product reads them.
+    pub(super) fn product(&self) -> Product<'_> {
+        Product {
+            mass: &self.mass,
+            free: &self.free,
+            pad: self.pad,
+        }
+    }
+
+    /// The streams, as the gathered product reads them.
+    pub(super) fn blocks(&self) -> impl Iterator<Item = Blocks<'_>> + Clone {
+        self.deltas
+            .iter()
+            .zip(&self.streams)
+            .map(|(&delta, c)| Blocks {
+                delta,
+                t: &c.t,
+                s: &c.s,
+                u: c.u.each_ref().map(|u| &u[..]),
+                transverse: c.transverse,
+            })
     }
 
     /// [`Operator::apply`] by streams scattered to both ends, in the SIMD
@@ -516,13 +548,13 @@ impl Operator {
         self.padded = padded;
     }
 
-    /// Whether the product can run as [`Operator::gather_range_avx512`] or
-    /// [`Operator::gather_range_avx2`] alone: every pair is in a stream.
     /// `Σ M(1 + αc)` over the free particles, kg.
     pub(super) fn total_mass(&self) -> f64 {
         self.mass.iter().map(|&m| m as f64).sum()
     }
 
+    /// Whether the gathered product ([`simd::gather`]) alone is the
+    /// product: every pair is in a stream.
     pub(super) fn streams_only(&self) -> bool {
         self.others.is_empty()
     }
@@ -594,7 +626,7 @@ fn sym_times(c: &[f32; 6], v: Vec3) -> Vec3 {
 }
 
 /// Particles of one AVX-512 vector, and the zeros after every stream.
-const LANES: usize = 16;
+const LANES: usize = simd::gather::LANES;
 
 /// `t_p = C_p (d_p − d_{p+δ})` for `p < m`, into `t`, with `C_p` at
 /// `pad + p` of the stream `c`.

@@ -1,8 +1,10 @@
 //! The Type 2 (buckling) streams: lengths, the `g` table and forces in
-//! one AVX-512 pass where the CPU has it, else in three portable loops.
+//! one AVX-512 pass where the CPU has it ([`simd::buckling`]), else in
+//! three portable loops.
 
-use super::{LANES, Soa, Stream, length_squared, pairs, window};
+use super::{Soa, Stream, length_squared, pairs, window};
 use crate::model::choi_ko::{BucklingTable, MIN_LENGTH};
+use crate::simd;
 
 /// The Type 2 law's constants: the `g` table, `k_b` (N·m²) and `c_b` (N/m).
 #[derive(Clone, Copy)]
@@ -13,8 +15,8 @@ pub(super) struct Buckling<'a> {
 }
 
 /// A Type 2 stream's pair forces, as [`pairs`] writes them: in one
-/// AVX-512 pass where the CPU has it ([`buckling_pairs_avx512`]), else in
-/// three passes with `g` and `len` as scratch of the stream's slots.
+/// AVX-512 pass where the CPU has it ([`simd::buckling`]), else in three
+/// passes with `g` and `len` as scratch of the stream's slots.
 #[inline(always)]
 pub(super) fn buckling_pairs(
     s: &Stream,
@@ -24,12 +26,35 @@ pub(super) fn buckling_pairs(
     g: &mut [f32],
     len: &mut [f32],
 ) {
-    #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("avx512f") {
-        // SAFETY: the CPU has AVX-512F, as checked on the line above.
-        return unsafe { buckling_pairs_avx512(s, x, pair, law) };
+    if !one_pass(simd::level(), s, x, pair, law) {
+        buckling_pairs_portable(s, x, pair, law, g, len);
     }
-    buckling_pairs_portable(s, x, pair, law, g, len);
+}
+
+/// [`buckling_pairs`] by the one-pass kernel of `level`, if it has one.
+fn one_pass(level: simd::Level, s: &Stream, x: &Soa, pair: &mut Soa, law: Buckling) -> bool {
+    let m = s.slots();
+    let (a, b) = s.ends();
+    let [px, py, pz] = &mut pair.0;
+    let slots = s.delta..s.delta + m;
+    let out = [
+        &mut px[slots.clone()],
+        &mut py[slots.clone()],
+        &mut pz[slots],
+    ];
+    let links = simd::buckling::Links {
+        a: window(x, &a),
+        b: window(x, &b),
+        rest: &s.rest[..m],
+        inv_rest: &s.inv_rest[..m],
+    };
+    let law = simd::buckling::Law {
+        pieces: law.table.pieces(),
+        kb: law.kb,
+        cb: law.cb,
+        min_length: MIN_LENGTH,
+    };
+    simd::buckling::pairs(level, law, links, out)
 }
 
 /// [`buckling_pairs`] in three loops: lengths and ratios, the table
@@ -50,69 +75,6 @@ fn buckling_pairs_portable(
     pairs(s, x, x, pair, per_slot, |d, _, r, [g, len, inv]| {
         buckling(d, r, len, inv, g, kb, cb)
     });
-}
-
-/// [`buckling_pairs`] sixteen slots at a time in one pass, with the same
-/// operations as [`buckling_pairs_portable`] (so the same forces, up to the
-/// sign of zeros): sixteen slots none of which is compressed (a flat or
-/// taut region of cloth) skip the square root, the table and the
-/// division.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f")]
-fn buckling_pairs_avx512(
-    s: &Stream,
-    x: &Soa,
-    pair: &mut Soa,
-    Buckling { table, kb, cb }: Buckling,
-) {
-    use std::arch::x86_64::*;
-    let m = s.slots();
-    let (a, b) = s.ends();
-    let ([xa, ya, za], [xb, yb, zb]) = (window(x, &a), window(x, &b));
-    let (rest, inv_rest) = (&s.rest[..m], &s.inv_rest[..m]);
-    let [px, py, pz] = &mut pair.0;
-    let slots = s.delta..s.delta + m;
-    let mut out = [
-        &mut px[slots.clone()],
-        &mut py[slots.clone()],
-        &mut pz[slots],
-    ];
-    let (kb, cb) = (_mm512_set1_ps(kb), _mm512_set1_ps(cb));
-    let min2 = _mm512_set1_ps(MIN_LENGTH * MIN_LENGTH);
-    for i in (0..m).step_by(LANES) {
-        // SAFETY: every slice above holds `m` values, a multiple of
-        // sixteen, and `i + 16 ≤ m`.
-        let load = |v: &[f32]| unsafe { _mm512_loadu_ps(v.as_ptr().add(i)) };
-        let d = [
-            _mm512_sub_ps(load(xb), load(xa)),
-            _mm512_sub_ps(load(yb), load(ya)),
-            _mm512_sub_ps(load(zb), load(za)),
-        ];
-        let len2 = _mm512_add_ps(
-            _mm512_add_ps(_mm512_mul_ps(d[0], d[0]), _mm512_mul_ps(d[1], d[1])),
-            _mm512_mul_ps(d[2], d[2]),
-        );
-        let r = load(rest);
-        // An empty slot's NaN rest length fails the first test.
-        let compressed = _mm512_cmp_ps_mask::<_CMP_LT_OQ>(len2, _mm512_mul_ps(r, r))
-            & _mm512_cmp_ps_mask::<_CMP_GE_OQ>(len2, min2);
-        let scale = if compressed == 0 {
-            _mm512_setzero_ps()
-        } else {
-            let len = _mm512_sqrt_ps(len2);
-            let inv = load(inv_rest);
-            let g = table.g_avx512(_mm512_mul_ps(len, inv));
-            let fb = _mm512_mul_ps(_mm512_mul_ps(kb, _mm512_mul_ps(inv, inv)), g);
-            let linear = _mm512_mul_ps(cb, _mm512_sub_ps(len, r));
-            let mag =
-                _mm512_mask_blend_ps(_mm512_cmp_ps_mask::<_CMP_GT_OQ>(linear, fb), fb, linear);
-            _mm512_maskz_div_ps(compressed, mag, len)
-        };
-        for (out, d) in out.iter_mut().zip(d) {
-            // SAFETY: as for the loads.
-            unsafe { _mm512_storeu_ps(out.as_mut_ptr().add(i), _mm512_mul_ps(d, scale)) };
-        }
-    }
 }
 
 /// `ℓ` (m) and `g(ℓ/L)` of every slot of a Type 2 stream into `len` and
@@ -150,7 +112,7 @@ fn buckling(d: [f32; 3], rest: f32, len: f32, inv_rest: f32, g: f32, kb: f32, cb
 
 #[cfg(test)]
 mod tests {
-    use super::super::{FamilyStreams, scatter};
+    use super::super::{FamilyStreams, LANES, scatter};
     use super::*;
     use crate::connections::Link;
     use crate::model::choi_ko::{BUCKLING_TABLE, type2_magnitude};
@@ -229,13 +191,13 @@ mod tests {
             chunks_without += (0..m / LANES)
                 .filter(|c| (0..LANES).all(|j| portable.get(s.delta + c * LANES + j) == Vec3::ZERO))
                 .count();
-            #[cfg(target_arch = "x86_64")]
-            if std::arch::is_x86_feature_detected!("avx512f") {
-                let mut one_pass = s.pair.clone();
-                // SAFETY: the CPU has AVX-512F, as checked on the line above.
-                unsafe { buckling_pairs_avx512(s, &xs, &mut one_pass, law) };
+            for level in simd::Level::available() {
+                let mut one = s.pair.clone();
+                if !one_pass(level, s, &xs, &mut one, law) {
+                    continue;
+                }
                 // The same operations: the same values (`==` takes −0 for 0).
-                for (c, (p, q)) in one_pass.0.iter().zip(&portable.0).enumerate() {
+                for (c, (p, q)) in one.0.iter().zip(&portable.0).enumerate() {
                     assert!(p.iter().zip(q).all(|(p, q)| p == q), "component {c}");
                 }
             }

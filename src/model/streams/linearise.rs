@@ -161,29 +161,7 @@ impl ForceStreams {
             w,
             lin,
         };
-        #[cfg(target_arch = "x86_64")]
-        if std::arch::is_x86_feature_detected!("avx512f") {
-            // SAFETY: the CPU has AVX-512F, as checked on the line above.
-            return unsafe { self.linearise_avx512(input, f, kw) };
-        } else if std::arch::is_x86_feature_detected!("avx2") {
-            // SAFETY: the CPU has AVX2, as checked on the line above.
-            return unsafe { self.linearise_avx2(input, f, kw) };
-        }
-        self.linearise_portable(input, f, kw);
-    }
-
-    /// [`Self::linearise_synced`] compiled for AVX-512.
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx512f")]
-    fn linearise_avx512(&mut self, input: Input, f: &mut [Vec3], kw: &mut [Vec3]) {
-        self.linearise_portable(input, f, kw);
-    }
-
-    /// [`Self::linearise_synced`] compiled for AVX2.
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
-    fn linearise_avx2(&mut self, input: Input, f: &mut [Vec3], kw: &mut [Vec3]) {
-        self.linearise_portable(input, f, kw);
+        linearise_at(crate::simd::level(), self, input, f, kw);
     }
 
     #[inline(always)]
@@ -303,29 +281,7 @@ impl ForceStreams {
             lin,
             scratch,
         };
-        #[cfg(target_arch = "x86_64")]
-        if std::arch::is_x86_feature_detected!("avx512f") {
-            // SAFETY: the CPU has AVX-512F, as checked on the line above.
-            return unsafe { Self::slot_values_avx512(slots) };
-        } else if std::arch::is_x86_feature_detected!("avx2") {
-            // SAFETY: the CPU has AVX2, as checked on the line above.
-            return unsafe { Self::slot_values_avx2(slots) };
-        }
-        Self::slot_values_inner(slots);
-    }
-
-    /// [`Self::slot_values`] compiled for AVX-512.
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx512f")]
-    fn slot_values_avx512(slots: Slots) {
-        Self::slot_values_inner(slots);
-    }
-
-    /// [`Self::slot_values`] compiled for AVX2.
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
-    fn slot_values_avx2(slots: Slots) {
-        Self::slot_values_inner(slots);
+        slot_values_at(crate::simd::level(), slots);
     }
 
     #[inline(always)]
@@ -397,6 +353,17 @@ impl ForceStreams {
     pub(crate) fn others(&self, k: usize) -> &[Link] {
         self.families.get(k).map_or(&[], |c| &c.others)
     }
+}
+
+crate::simd::multiversion! {
+    /// [`ForceStreams::linearise_portable`] compiled for a SIMD level.
+    fn linearise_at(this: &mut ForceStreams, input: Input, f: &mut [Vec3], kw: &mut [Vec3])
+        = ForceStreams::linearise_portable;
+}
+
+crate::simd::multiversion! {
+    /// [`ForceStreams::slot_values_inner`] compiled for a SIMD level.
+    fn slot_values_at(slots: Slots) = ForceStreams::slot_values_inner;
 }
 
 impl Out<'_> {

@@ -185,9 +185,7 @@ fn the_gathered_and_scattered_products_agree() {
         assert_eq!(a.get(0), Vec3::ZERO, "a pinned row is filtered");
     };
     check(&|op, out| op.apply(&d, out));
-    #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma") {
-        // SAFETY: the CPU has AVX2 and FMA, as checked on the line above.
-        check(&|op, out| unsafe { op.gather_avx2(&d, out) });
+    for level in crate::simd::Level::available() {
+        check(&|op, out| op.apply_at(level, &d, out));
     }
 }

@@ -1,0 +1,99 @@
+//! [`ClothError`]: everything that can be wrong with a cloth's description
+//! or settings. It names no other module of the crate, so every layer can
+//! return it.
+
+use bevy::math::Vec3;
+
+/// Everything that can be wrong with a cloth's description.
+#[derive(thiserror::Error, Clone, Debug, PartialEq)]
+pub enum ClothError {
+    /// The grid needs at least 3×3 particles (Type 2 links span two spacings).
+    #[error("a cloth grid needs at least 3x3 particles, got {cols}x{rows}")]
+    GridTooSmall {
+        /// Requested columns.
+        cols: u32,
+        /// Requested rows.
+        rows: u32,
+    },
+    /// The grid has more particles than [`MAX_PARTICLES`](crate::grid::MAX_PARTICLES).
+    #[error("a {cols}x{rows} grid exceeds the limit of {max} particles")]
+    GridTooLarge {
+        /// Requested columns.
+        cols: u32,
+        /// Requested rows.
+        rows: u32,
+        /// The limit.
+        max: u32,
+    },
+    /// Width and height (m) must be finite and positive.
+    #[error("cloth size must be finite and positive, got {width} m x {height} m")]
+    InvalidSize {
+        /// Requested width in m.
+        width: f32,
+        /// Requested height in m.
+        height: f32,
+    },
+    /// Mass (kg, or kg/m² per area) must be finite and positive.
+    #[error("cloth mass must be finite and positive, got {0}")]
+    InvalidMass(f32),
+    /// Position or rotation is not finite, or the rotation has zero length.
+    #[error("cloth placement must be finite with a non-zero rotation")]
+    InvalidPlacement,
+    /// A particle index is not in the grid.
+    #[error("particle index {index} is out of range for {count} particles")]
+    ParticleOutOfRange {
+        /// The offending index.
+        index: u32,
+        /// Particles in the cloth.
+        count: u32,
+    },
+    /// The particle arrays (positions, velocities, masses) differ in length.
+    #[error("the particle arrays of a cloth differ in length")]
+    InconsistentParticles,
+    /// A stiffness (N/m or N·m²) is not finite and positive.
+    #[error("stiffness `{name}` must be finite and positive, got {value}")]
+    InvalidStiffness {
+        /// Which setting.
+        name: &'static str,
+        /// Its value.
+        value: f32,
+    },
+    /// A damping coefficient (s⁻¹ or N·s/m) is not finite and non-negative.
+    #[error("damping `{name}` must be finite and non-negative, got {value}")]
+    InvalidDamping {
+        /// Which setting.
+        name: &'static str,
+        /// Its value.
+        value: f32,
+    },
+    /// Substeps must be between 1 and [`MAX_SUBSTEPS`](crate::settings::MAX_SUBSTEPS).
+    #[error("substeps must be between 1 and 100000, got {0}")]
+    InvalidSubsteps(u32),
+    /// Adaptive substeps need a safety factor in (0, 1] and a cap between 1
+    /// and [`MAX_SUBSTEPS`](crate::settings::MAX_SUBSTEPS).
+    #[error(
+        "adaptive substeps need safety in (0, 1] and max_substeps in 1..=100000, got {safety} and {max_substeps}"
+    )]
+    InvalidAdaptive {
+        /// The safety factor given.
+        safety: f32,
+        /// The substep cap given.
+        max_substeps: u32,
+    },
+    /// A collider's shape or material is invalid, or its mesh unusable.
+    #[error("invalid collider: {0}")]
+    InvalidCollider(&'static str),
+    /// The implicit solve needs a tolerance in (0, 1), at least one
+    /// iteration and a finite, non-negative Newton strain.
+    #[error(
+        "the implicit solver needs a tolerance in (0, 1), at least one iteration and a finite, non-negative newton_strain"
+    )]
+    InvalidSolver,
+    /// A crease is invalid (non-finite, ratio outside (0, 1], angle outside
+    /// [0, π), zero length, or missing the cloth).
+    #[error("invalid crease: {0}")]
+    InvalidCrease(&'static str),
+    /// Gravity (m/s²) must be finite.
+    #[error("gravity must be finite, got {0}")]
+    InvalidGravity(Vec3),
+}
