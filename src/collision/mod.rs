@@ -32,6 +32,7 @@
 //! side, also the schedule, poses and the step's [`ContactHook`].
 
 pub mod contact;
+mod from_mesh;
 pub mod narrow;
 pub mod predict;
 pub mod self_collision;

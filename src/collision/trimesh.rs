@@ -3,7 +3,6 @@
 //! 10 000-triangle table costs about what a 12-triangle one does.
 
 use bevy::math::{Vec3, bounding::Aabb3d};
-use bevy::mesh::{Indices, Mesh, VertexAttributeValues};
 
 use crate::error::ClothError;
 
@@ -61,35 +60,6 @@ impl TriMesh {
         let n = mesh.order.len();
         mesh.build(0, n);
         Ok(mesh)
-    }
-
-    /// The triangles of a Bevy `Mesh` (triangle list, `Float32x3`
-    /// positions, with or without indices), in the mesh's own space.
-    pub fn from_mesh(mesh: &Mesh) -> Result<Self, ClothError> {
-        let bad =
-            ClothError::InvalidCollider("the mesh needs Float32x3 positions in a triangle list");
-        if mesh.primitive_topology() != bevy::mesh::PrimitiveTopology::TriangleList {
-            return Err(bad);
-        }
-        let Ok(VertexAttributeValues::Float32x3(positions)) =
-            mesh.try_attribute(Mesh::ATTRIBUTE_POSITION)
-        else {
-            return Err(bad);
-        };
-        let p = |i: usize| positions.get(i).map(|v| Vec3::from_array(*v));
-        let indices: Vec<usize> = match mesh.try_indices() {
-            Ok(Indices::U16(i)) => i.iter().map(|&i| i as usize).collect(),
-            Ok(Indices::U32(i)) => i.iter().map(|&i| i as usize).collect(),
-            Err(_) => (0..positions.len()).collect(),
-        };
-        let mut tris = Vec::with_capacity(indices.len() / 3);
-        for c in indices.chunks_exact(3) {
-            match (p(c[0]), p(c[1]), p(c[2])) {
-                (Some(a), Some(b), Some(c)) => tris.push([a, b, c]),
-                _ => return Err(ClothError::InvalidCollider("a mesh index is out of range")),
-            }
-        }
-        Self::new(tris)
     }
 
     /// The box around every triangle (local, m).
