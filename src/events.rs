@@ -7,8 +7,8 @@
 //! |---|---|
 //! | [`ClothGrabbed`] | a grab of [`ClothGrabs`](crate::interaction::ClothGrabs) first takes hold of its particle |
 //! | [`ClothReleased`] | that grab lets go |
-//! | [`ClothAtRest`] | no free particle has moved faster than [`REST_SPEED`] for [`REST_STEPS`] fixed steps |
-//! | [`ClothWoke`] | a resting cloth's fastest free particle passes [`WAKE_SPEED`] |
+//! | [`ClothAtRest`] | no free or grabbed particle has moved faster than [`REST_SPEED`] for [`REST_STEPS`] fixed steps |
+//! | [`ClothWoke`] | a resting cloth's fastest free or grabbed particle passes [`WAKE_SPEED`] |
 //! | [`ClothDiverged`](crate::guard::ClothDiverged) | the divergence guard redid a step (also a [`Message`](bevy::ecs::message::Message)) |
 //!
 //! ```
@@ -25,11 +25,12 @@
 
 use bevy::prelude::{Entity, EntityEvent, Reflect};
 
-/// A free particle slower than this, m/s, counts as resting.
+/// A free or grabbed particle slower than this, m/s, counts as resting.
 pub const REST_SPEED: f32 = 0.01;
-/// A resting cloth wakes when a free particle moves faster than this, m/s.
+/// A resting cloth wakes when a free or grabbed particle moves faster than
+/// this, m/s.
 pub const WAKE_SPEED: f32 = 0.02;
-/// Fixed steps every free particle must stay under [`REST_SPEED`] before
+/// Fixed steps every free or grabbed particle must stay under [`REST_SPEED`] before
 /// the cloth is at rest (half a second at 60 Hz).
 pub const REST_STEPS: u32 = 30;
 
@@ -51,7 +52,7 @@ pub struct ClothReleased {
     pub particle: u32,
 }
 
-/// The cloth came to rest: every free particle has stayed slower than
+/// The cloth came to rest: every free or grabbed particle has stayed slower than
 /// [`REST_SPEED`] for [`REST_STEPS`] fixed steps. It keeps being simulated.
 #[derive(EntityEvent, Clone, Copy, Debug, PartialEq, Reflect)]
 pub struct ClothAtRest {
@@ -59,7 +60,8 @@ pub struct ClothAtRest {
     pub entity: Entity,
 }
 
-/// A resting cloth moves again: a free particle passed [`WAKE_SPEED`].
+/// A resting cloth moves again: a free or grabbed particle passed
+/// [`WAKE_SPEED`].
 #[derive(EntityEvent, Clone, Copy, Debug, PartialEq, Reflect)]
 pub struct ClothWoke {
     /// The cloth.
@@ -82,7 +84,7 @@ pub(crate) enum RestChange {
 }
 
 impl RestTracker {
-    /// Feeds one fixed step's fastest free particle speed (m/s).
+    /// Feeds one fixed step's fastest free or grabbed particle speed (m/s).
     pub(crate) fn step(&mut self, max_speed: f32) -> Option<RestChange> {
         // A non-finite speed is not rest.
         let calm = max_speed < REST_SPEED;

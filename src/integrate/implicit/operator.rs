@@ -510,14 +510,13 @@ impl Operator {
         }
     }
 
-    /// Copies `d` into [`Operator::padded`](Self) and checks the lengths
-    /// the gathered products rely on.
+    /// Copies `d` into [`Operator::padded`](Self) (the gathered product
+    /// checks the lengths it relies on).
     pub(super) fn fill_padded(&mut self, d: &Soa) {
         let (n, pad) = (self.mass.len(), self.pad);
         for (p, x) in self.padded.0.iter_mut().zip(&d.0) {
             p[pad..pad + n].copy_from_slice(&x[..n]);
         }
-        self.check_padded(&self.padded);
     }
 
     /// Asserts what the gathered products' loads rely on: every stream
