@@ -12,13 +12,15 @@ use bevy::prelude::*;
 use bevy::tasks::{ComputeTaskPool, TaskPool};
 use bevy::time::TimeUpdateStrategy;
 use bevy::transform::TransformPlugin;
-use bevy_cloth::integrate::StepBuffers;
 use bevy_cloth::lab::accuracy::scene;
-use bevy_cloth::model::bands::internal_forces_banded;
-use bevy_cloth::model::streams::ForceStreams;
-use bevy_cloth::model::{internal_forces, internal_forces_streamed};
+use bevy_cloth::plugin::systems::ComputePool;
 use bevy_cloth::prelude::*;
-use bevy_cloth::step::step_cloth;
+use bevy_cloth::sim::integrate::StepBuffers;
+use bevy_cloth::sim::model::bands::internal_forces_banded;
+use bevy_cloth::sim::model::streams::ForceStreams;
+use bevy_cloth::sim::model::{internal_forces, internal_forces_streamed};
+use bevy_cloth::sim::step::step_cloth;
+use bevy_cloth::sim::workers::Workers;
 use common::headless;
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
 
@@ -44,7 +46,7 @@ fn settled(n: u32) -> ClothBundle {
 }
 
 fn forces(c: &mut Criterion) {
-    let pool = ComputeTaskPool::get_or_init(TaskPool::default);
+    let pool = ComputePool(ComputeTaskPool::get_or_init(TaskPool::default));
     let mut group = c.benchmark_group("forces");
     for n in SIZES {
         let cloth = settled(n);
@@ -86,11 +88,12 @@ fn forces(c: &mut Criterion) {
         }
         // The same Choi–Ko forces in parallel bands on the compute pool.
         let settings = ClothSettings::default();
-        let name = format!("ChoiKo_banded_{}threads", pool.thread_num());
+        let name = format!("ChoiKo_banded_{}threads", pool.threads());
         group.bench_function(BenchmarkId::new(name, n), |b| {
             b.iter(|| {
                 f.fill(Vec3::ZERO);
                 let banded = internal_forces_banded(
+                    Some(&pool),
                     &settings,
                     &cloth.connections,
                     &cloth.particles.positions,
@@ -216,7 +219,7 @@ fn mesh_collider(c: &mut Criterion) {
             .expect("valid ico sphere");
         let collider = ClothCollider::mesh(&sphere).expect("a triangle mesh");
         let triangles = match &collider.shape {
-            bevy_cloth::collision::ColliderShape::Mesh(m) => m.0.triangles.len(),
+            bevy_cloth::plugin::collision::ColliderShape::Mesh(m) => m.0.triangles.len(),
             _ => 0,
         };
         let mut app = App::new();
@@ -224,7 +227,7 @@ fn mesh_collider(c: &mut Criterion) {
             .insert_resource(Time::<Fixed>::from_hz(60.0))
             .insert_resource(TimeUpdateStrategy::FixedTimesteps(1))
             .insert_resource(ClothDefaults(
-                ClothSettings::default().with_integrator(Integrator::Bdf2, 1),
+                SimSettings::default().with_integrator(Integrator::Bdf2, 1),
             ));
         app.world_mut()
             .spawn((collider, Transform::from_xyz(0.0, 1.0, 0.0)));

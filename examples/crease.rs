@@ -13,9 +13,9 @@ mod automation;
 
 use bevy::picking::events::{Move, Pointer, Press};
 use bevy::prelude::*;
-use bevy_cloth::crease::{ClothCreases, Crease, FoldAmount, FoldSide};
-use bevy_cloth::picking::ClothPicking;
+use bevy_cloth::plugin::picking::ClothPicking;
 use bevy_cloth::prelude::*;
+use bevy_cloth::sim::crease::{Crease, FoldAmount, FoldSide};
 use bevy_egui::EguiPlugin;
 use bevy_egui::{EguiContexts, EguiPrimaryContextPass, egui};
 use bevy_panorbit_camera::{PanOrbitCamera, PanOrbitCameraPlugin};
@@ -118,7 +118,7 @@ fn setup(
         ClothCollider::cuboid(Vec3::new(0.8, 0.02, 0.6)).with_friction(0.6),
     ));
     // Paper keeps the flaps flat, so folds take their angle (see
-    // `bevy_cloth::crease`).
+    // `bevy_cloth::sim::crease`).
     let material = materials.add(StandardMaterial {
         base_color: Color::srgb(0.55, 0.7, 0.95),
         perceptual_roughness: 0.8,
@@ -131,7 +131,7 @@ fn setup(
 
 /// The rest coordinates (m) of the particle nearest a world point.
 fn rest_uv(cloth: &Cloth, particles: &ClothParticles, point: Vec3) -> Option<Vec2> {
-    bevy_cloth::interaction::nearest(particles, point).map(|p| cloth.rest_uv(p))
+    bevy_cloth::plugin::interaction::nearest(particles, point).map(|p| cloth.rest_uv(p))
 }
 
 fn shift(keys: &ButtonInput<KeyCode>) -> bool {

@@ -24,10 +24,10 @@ fn main() {
         // One 60 Hz fixed step per update, whatever the wall clock says.
         .insert_resource(TimeUpdateStrategy::FixedTimesteps(1))
         .insert_resource(Time::<Fixed>::from_hz(60.0))
-        .insert_resource(ClothWind {
+        .insert_resource(ClothWind(Wind {
             velocity: Vec3::new(3.0, 0.0, 1.0),
             ..default()
-        })
+        }))
         .add_systems(Startup, setup);
     app.add_observer(|rest: On<ClothAtRest>| println!("the cloth {} is at rest", rest.entity))
         .add_observer(|woke: On<ClothWoke>| println!("the cloth {} moves again", woke.entity))

@@ -15,7 +15,7 @@ pub enum ClothError {
         /// Requested rows.
         rows: u32,
     },
-    /// The grid has more particles than [`MAX_PARTICLES`](crate::grid::MAX_PARTICLES).
+    /// The grid has more particles than [`MAX_PARTICLES`](crate::sim::grid::MAX_PARTICLES).
     #[error("a {cols}x{rows} grid exceeds the limit of {max} particles")]
     GridTooLarge {
         /// Requested columns.
@@ -66,11 +66,11 @@ pub enum ClothError {
         /// Its value.
         value: f32,
     },
-    /// Substeps must be between 1 and [`MAX_SUBSTEPS`](crate::settings::MAX_SUBSTEPS).
+    /// Substeps must be between 1 and [`MAX_SUBSTEPS`](crate::sim::settings::MAX_SUBSTEPS).
     #[error("substeps must be between 1 and 100000, got {0}")]
     InvalidSubsteps(u32),
     /// Adaptive substeps need a safety factor in (0, 1] and a cap between 1
-    /// and [`MAX_SUBSTEPS`](crate::settings::MAX_SUBSTEPS).
+    /// and [`MAX_SUBSTEPS`](crate::sim::settings::MAX_SUBSTEPS).
     #[error(
         "adaptive substeps need safety in (0, 1] and max_substeps in 1..=100000, got {safety} and {max_substeps}"
     )]

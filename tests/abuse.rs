@@ -8,7 +8,7 @@ mod common;
 
 use bevy::ecs::message::Messages;
 use bevy::prelude::*;
-use bevy_cloth::guard::ClothDiverged;
+use bevy_cloth::plugin::events::ClothDiverged;
 use bevy_cloth::prelude::*;
 use common::{Rng, app, particles};
 
@@ -384,12 +384,12 @@ fn flag(speed: f32, settings: Option<ClothSettings>) -> (App, Entity) {
         .build()
         .unwrap();
     let (mut app, e) = spawn(cloth, settings);
-    app.insert_resource(ClothWind {
+    app.insert_resource(ClothWind(Wind {
         velocity: Vec3::new(speed, 0.0, 0.3 * speed),
         gust_amplitude: 0.5,
         gust_frequency: 1.3,
         ..default()
-    });
+    }));
     (app, e)
 }
 

@@ -5,10 +5,10 @@ use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
-use bevy_cloth::integrate::StepBuffers;
 use bevy_cloth::lab::accuracy::scene;
 use bevy_cloth::prelude::*;
-use bevy_cloth::step::step_cloth;
+use bevy_cloth::sim::integrate::StepBuffers;
+use bevy_cloth::sim::step::step_cloth;
 
 /// Counts the allocations made on a thread while it is counting.
 struct Counting;

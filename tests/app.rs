@@ -90,10 +90,10 @@ fn per_cloth_settings_override_the_defaults() {
         .world_mut()
         .spawn((
             hanging(5),
-            ClothSettings {
+            ClothSettings(SimSettings {
                 gravity: Vec3::ZERO,
                 ..default()
-            },
+            }),
         ))
         .id();
     let start = particles(&app, floats).positions.clone();
@@ -119,10 +119,10 @@ fn invalid_user_data_skips_the_cloth_instead_of_panicking() {
         .world_mut()
         .spawn((
             hanging(5),
-            ClothSettings {
+            ClothSettings(SimSettings {
                 substeps: 0,
                 ..default()
-            },
+            }),
         ))
         .id();
     let mut broken = hanging(5);
@@ -293,7 +293,7 @@ fn bounds_follow_the_moving_cloth_in_the_same_frame() {
 #[test]
 fn live_figures_are_bevy_diagnostics() {
     use bevy::diagnostic::DiagnosticsStore;
-    use bevy_cloth::diagnostics::{
+    use bevy_cloth::plugin::diagnostics::{
         KINETIC_ENERGY, MAX_STRAIN, STEP_TIME, SUBSTEPS, step_time_path,
     };
     let mut app = app();
@@ -336,7 +336,7 @@ fn statistics_measure_the_state_whatever_changed_it_after_the_step() {
     // its figure unless the particles changed since.
     let mut app = app();
     app.insert_resource(ClothDefaults(
-        ClothSettings::default().with_integrator(Integrator::BackwardEuler, 1),
+        SimSettings::default().with_integrator(Integrator::BackwardEuler, 1),
     ))
     .add_systems(FixedUpdate, shove.in_set(ClothSystems::Collide));
     let cloth = app.world_mut().spawn(hanging(48)).id();
@@ -344,7 +344,7 @@ fn statistics_measure_the_state_whatever_changed_it_after_the_step() {
         app.update();
         let p = particles(&app, cloth);
         let links = app.world().get::<ClothConnections>(cloth).unwrap();
-        let fresh = bevy_cloth::connections::max_strain(links.type1(), &p.positions);
+        let fresh = bevy_cloth::sim::connections::max_strain(links.type1(), &p.positions);
         let stats = app.world().get::<ClothStats>(cloth).unwrap();
         assert_eq!(stats.max_strain.to_bits(), fresh.to_bits(), "step {step}");
         if step == 3 {

@@ -1,7 +1,8 @@
 //! The crate's structure, read from `src/`: no module imports one that
 //! imports it back, except a module and its own descendants (code under
-//! `#[cfg(test)]` may use anything and is not counted); and only `src/simd/`
-//! names `std::arch` or a target feature.
+//! `#[cfg(test)]` may use anything and is not counted); `src/sim/` names no
+//! ECS type and none of the plugin; and only `src/simd/` names `std::arch`
+//! or a target feature.
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::fs;
@@ -334,6 +335,78 @@ fn only_the_simd_folder_names_cpu_features() {
     );
 }
 
+/// What `src/sim/` may not name: the ECS (components, resources, queries,
+/// commands, entities, messages, events, task pools, apps, worlds,
+/// plugins, systems), Bevy outside `bevy::math` and `bevy::reflect`, and
+/// the plugin layer.
+fn ecs_names(text: &str) -> Vec<String> {
+    const WORDS: [&str; 17] = [
+        "Component",
+        "Resource",
+        "Query",
+        "Commands",
+        "Entity",
+        "Message",
+        "Event",
+        "EntityEvent",
+        "TaskPool",
+        "ComputeTaskPool",
+        "App",
+        "World",
+        "Plugin",
+        "SystemParam",
+        "Res",
+        "ResMut",
+        "Bundle",
+    ];
+    let mut found = Vec::new();
+    let words = text
+        .split(|c: char| !(c.is_alphanumeric() || c == '_'))
+        .filter(|w| !w.is_empty());
+    for word in words {
+        if WORDS.contains(&word) {
+            found.push(word.to_string());
+        }
+    }
+    let mut from = 0;
+    while let Some(at) = text[from..].find("bevy::") {
+        let start = from + at + "bevy::".len();
+        let module: String = text[start..]
+            .chars()
+            .take_while(|c| c.is_alphanumeric() || *c == '_')
+            .collect();
+        if module != "math" && module != "reflect" {
+            found.push(format!("bevy::{module}"));
+        }
+        from = start;
+    }
+    if text.contains("crate::plugin") || text.contains("bevy_cloth::plugin") {
+        found.push("crate::plugin".to_string());
+    }
+    found
+}
+
+#[test]
+fn the_simulation_core_names_no_ecs_type() {
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+    let mut files = Vec::new();
+    sources(&src.join("sim"), &mut files);
+    assert!(files.len() > 30, "read {} files", files.len());
+    let mut found = Vec::new();
+    for file in &files {
+        // Unit-test files (`mod tests;` under `#[cfg(test)]`) may use anything.
+        let module = module_of(&src, file);
+        if module.split("::").any(|part| part == "tests") {
+            continue;
+        }
+        let text = code(&fs::read_to_string(file).unwrap());
+        for name in ecs_names(&text) {
+            found.push(format!("{}: {name}", file.display()));
+        }
+    }
+    assert!(found.is_empty(), "ECS names in src/sim/: {found:#?}");
+}
+
 #[test]
 fn the_reader_sees_uses_groups_and_test_code() {
     // The checker itself: a grouped `use`, `super::`, and imports under
@@ -351,4 +424,21 @@ fn the_reader_sees_uses_groups_and_test_code() {
     edges.insert("b".into(), ["a".to_string()].into());
     edges.insert("c".into(), ["a".to_string()].into());
     assert_eq!(cycles(&edges), vec![vec!["a".to_string(), "b".to_string()]]);
+    // ECS names are found as whole words, outside comments and tests;
+    // `ComponentCount` or a comment about a `Query` is not one.
+    let text = code(
+        "use bevy::prelude::{Component, Query};\nuse bevy::math::Vec3;\n\
+         struct ComponentCount; // a Query\nfn f(e: Entity) {}\n\
+         use crate::plugin::x;\n#[cfg(test)]\nmod tests { use bevy::ecs::World; }\n",
+    );
+    assert_eq!(
+        ecs_names(&text),
+        [
+            "Component",
+            "Query",
+            "Entity",
+            "bevy::prelude",
+            "crate::plugin"
+        ]
+    );
 }

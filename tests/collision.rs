@@ -8,7 +8,7 @@ use common::app;
 
 use bevy::mesh::Meshable;
 use bevy::prelude::*;
-use bevy_cloth::collision::ClothCollisionStats;
+use bevy_cloth::plugin::collision::ClothCollisionStats;
 use bevy_cloth::prelude::*;
 
 const THICKNESS: f32 = 0.005;
@@ -311,10 +311,10 @@ fn fold(self_collision: bool) -> f32 {
             }
         }
     }
-    let settings = ClothSettings {
+    let settings = ClothSettings(SimSettings {
         gravity: Vec3::ZERO,
         ..default()
-    };
+    });
     let e = if self_collision {
         app.world_mut()
             .spawn((cloth, settings, ClothSelfCollision { thickness: 0.02 }))
@@ -351,10 +351,10 @@ fn self_collision_keeps_a_folded_layer_from_passing_through() {
 /// halves on two threads: the same positions, velocities and counts.
 #[test]
 fn a_large_cloths_contacts_are_the_same_in_two_halves() {
-    use bevy_cloth::collision::{
+    use bevy_cloth::plugin::collision::{
         ColliderScene, ColliderShape, SPLIT_PARTICLES, SceneCollider, Shape, resolve_substep,
     };
-    use bevy_cloth::step::Substep;
+    use bevy_cloth::sim::step::Substep;
     let pose = Isometry3d::from_translation(Vec3::new(0.0, 1.0, 0.0));
     let scene = ColliderScene {
         colliders: vec![SceneCollider {

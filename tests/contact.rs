@@ -6,7 +6,7 @@ mod common;
 
 use bevy::mesh::Meshable;
 use bevy::prelude::*;
-use bevy_cloth::mesh::grid_normals;
+use bevy_cloth::plugin::mesh::grid_normals;
 use bevy_cloth::prelude::*;
 use common::{app, particles};
 

@@ -6,8 +6,8 @@ mod common;
 use std::collections::BTreeSet;
 
 use bevy::prelude::*;
-use bevy_cloth::crease::{ClothCreases, Crease, FoldSide, crossing};
 use bevy_cloth::prelude::*;
+use bevy_cloth::sim::crease::{Crease, FoldSide, crossing};
 use common::{app, particles};
 
 /// A flat, horizontal 15×15, 1 m sheet (rest `uv` = its `x`, `z` + ½).
@@ -24,7 +24,7 @@ fn sheet() -> ClothBundle {
 
 fn pairs(
     cloth: &ClothBundle,
-    selected: &[(bevy_cloth::connections::LinkFamily, usize)],
+    selected: &[(bevy_cloth::sim::connections::LinkFamily, usize)],
 ) -> BTreeSet<(u32, u32)> {
     selected
         .iter()
@@ -118,9 +118,9 @@ fn paper_app() -> App {
 /// [`paper_app`] with another stepping.
 fn paper_app_with(stepping: ClothSettings) -> App {
     let mut app = app();
-    let mut settings = ClothSettings {
+    let mut settings = SimSettings {
         gravity: Vec3::ZERO,
-        ..stepping
+        ..stepping.0
     };
     settings.choi_ko.bending_rigidity = 1e-4;
     app.insert_resource(ClothDefaults(settings));
@@ -226,9 +226,9 @@ fn removing_or_changing_creases_restores_the_original_connections() {
 
 #[test]
 fn a_sharp_crease_stays_finite_with_every_explicit_integrator() {
-    use bevy_cloth::crease::{CreaseRecord, apply_creases};
-    use bevy_cloth::integrate::StepBuffers;
-    use bevy_cloth::step::step_cloth;
+    use bevy_cloth::sim::crease::{CreaseRecord, apply_creases};
+    use bevy_cloth::sim::integrate::StepBuffers;
+    use bevy_cloth::sim::step::step_cloth;
     // Safe steps for cotton 15×15: symplectic Euler and RK4 per MODEL.md §11;
     // explicit Euler well inside its measured stable step (docs/accuracy-cotton.txt).
     for (integrator, dt) in [
@@ -257,7 +257,7 @@ fn a_sharp_crease_stays_finite_with_every_explicit_integrator() {
                 dt,
             );
         }
-        let strain = bevy_cloth::connections::max_strain(
+        let strain = bevy_cloth::sim::connections::max_strain(
             cloth.connections.type1(),
             &cloth.particles.positions,
         );

@@ -5,7 +5,7 @@ mod common;
 
 use bevy::diagnostic::{DiagnosticsPlugin, DiagnosticsStore};
 use bevy::prelude::*;
-use bevy_cloth::diagnostics::cloth_path;
+use bevy_cloth::plugin::diagnostics::cloth_path;
 use bevy_cloth::prelude::*;
 use common::{app, particles};
 

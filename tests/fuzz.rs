@@ -5,9 +5,9 @@
 mod common;
 
 use bevy::prelude::*;
-use bevy_cloth::cloth::MAX_PARTICLES;
-use bevy_cloth::crease::{ClothCreases, Crease};
 use bevy_cloth::prelude::*;
+use bevy_cloth::sim::crease::Crease;
+use bevy_cloth::sim::grid::MAX_PARTICLES;
 use common::{app, particles};
 use proptest::prelude::*;
 
@@ -147,7 +147,7 @@ proptest! {
                 Action::Release(i) => world.get_mut::<ClothGrabs>(e).unwrap().release(i),
                 Action::Pin(i) => { world.get_mut::<ClothParticles>(e).unwrap().pin(i as usize); }
                 Action::Unpin(i) => { world.get_mut::<ClothParticles>(e).unwrap().unpin(i as usize); }
-                Action::Wind(v) => { world.insert_resource(ClothWind { velocity: v, gust_amplitude: 0.3, ..default() }); }
+                Action::Wind(v) => { world.insert_resource(ClothWind(Wind { velocity: v, gust_amplitude: 0.3, ..default() })); }
                 Action::MoveBall(p) => world.get_mut::<Transform>(ball).unwrap().translation = p,
                 Action::Steps(n) => for _ in 0..n { app.update(); },
             }

@@ -7,15 +7,16 @@ use std::hash::{Hash, Hasher};
 
 use bevy::ecs::message::Messages;
 use bevy::prelude::*;
-use bevy_cloth::guard::{ClothDiverged, Fallback, GuardSettings};
+use bevy_cloth::plugin::events::ClothDiverged;
 use bevy_cloth::prelude::*;
-use bevy_cloth::settings::Parallelism;
+use bevy_cloth::sim::guard::{Fallback, GuardSettings};
+use bevy_cloth::sim::settings::Parallelism;
 use common::{app, hanging, particles};
 
 /// Cotton under symplectic Euler with 4 substeps at 60 Hz: a 4.2 ms step,
 /// far above its 0.55 ms bound (MODEL.md §6.4).
 fn too_few_substeps(guard: GuardSettings) -> ClothSettings {
-    ClothSettings { guard, ..default() }
+    ClothSettings(SimSettings { guard, ..default() })
         .with_integrator(Integrator::SymplecticEuler, 4)
         .without_adaptive()
 }
@@ -40,7 +41,7 @@ fn without_the_guard_the_cloth_blows_up() {
     };
     let (app, cloth, seen) = run(too_few_substeps(unguarded), 60);
     let p = particles(&app, cloth);
-    let strain = bevy_cloth::connections::max_strain(
+    let strain = bevy_cloth::sim::connections::max_strain(
         app.world().get::<ClothConnections>(cloth).unwrap().type1(),
         &p.positions,
     );
@@ -118,21 +119,21 @@ fn scene_hash(steps: usize) -> u64 {
 /// [`scene_hash`] with the first cloth's force evaluation set to `parallel`.
 fn scene_hash_with(steps: usize, parallel: Parallelism) -> u64 {
     let mut app = app();
-    app.insert_resource(ClothWind {
+    app.insert_resource(ClothWind(Wind {
         velocity: Vec3::new(2.0, 0.0, 3.0),
         gust_amplitude: 0.5,
         ..default()
-    });
+    }));
     app.world_mut().spawn((
         ClothCollider::sphere(0.2),
         Transform::from_xyz(0.1, 1.2, 0.1),
     ));
     // The first cloth steps with symplectic Euler, whose force evaluation
     // `parallel` picks.
-    let settings = ClothSettings {
+    let settings = ClothSettings(SimSettings {
         parallel,
         ..default()
-    }
+    })
     .with_integrator(Integrator::SymplecticEuler, 40)
     .without_adaptive();
     let a = app.world_mut().spawn((common::sheet(12), settings)).id();

@@ -21,11 +21,11 @@
 mod common;
 
 use bevy::prelude::*;
-use bevy_cloth::adaptive::AdaptiveSubsteps;
-use bevy_cloth::crease::{ClothCreases, Crease};
-use bevy_cloth::guard::GuardSettings;
 use bevy_cloth::prelude::*;
-use bevy_cloth::settings::MAX_SUBSTEPS;
+use bevy_cloth::sim::adaptive::AdaptiveSubsteps;
+use bevy_cloth::sim::crease::Crease;
+use bevy_cloth::sim::guard::GuardSettings;
+use bevy_cloth::sim::settings::MAX_SUBSTEPS;
 use common::{app, hanging, particles};
 
 /// The grid of the suite: small enough for explicit Euler's thousands of
@@ -98,7 +98,7 @@ fn explicit_euler_pays_for_its_safe_step_in_substeps() {
         s.choi_ko.stiffness *= scale;
         s.choi_ko.shear_stiffness *= scale;
         s.choi_ko.buckling_slope *= scale;
-        let mode = bevy_cloth::adaptive::stiffest_mode(
+        let mode = bevy_cloth::sim::adaptive::stiffest_mode(
             &s,
             &cloth.connections,
             &cloth.particles.positions,
@@ -219,7 +219,7 @@ fn particles_100_times_lighter_at_runtime() {
         run(&mut app, e, 0.2, "lighten: before");
         {
             let mut p = app.world_mut().get_mut::<ClothParticles>(e).unwrap();
-            let p = &mut *p;
+            let p = &mut p.0;
             for (m, w) in p.masses.iter_mut().zip(&mut p.inverse_masses) {
                 *m /= 100.0;
                 if *w > 0.0 {
@@ -239,13 +239,13 @@ fn particles_100_times_lighter_at_runtime() {
 #[test]
 fn stiffness_x100_without_adaptive_substeps_blows_up() {
     // Symplectic Euler at a fixed 40 substeps is stable for cotton...
-    let s = ClothSettings {
+    let s = ClothSettings(SimSettings {
         guard: GuardSettings {
             enabled: false,
             ..default()
         },
         ..default()
-    }
+    })
     .with_integrator(Integrator::SymplecticEuler, 40)
     .without_adaptive();
     let (mut app, e) = spawn(hanging(GRID), s);
@@ -284,12 +284,12 @@ fn explicit_euler_on_the_sharp_crease_needs_the_tension_term() {
     let crease = Crease::new(Vec2::new(0.5, -0.1), Vec2::new(0.5, 1.1)).with_ratio(0.3);
     let resting = ClothSettings::default().with_integrator(Integrator::ExplicitEuler, 1);
     let cloth = hanging(GRID);
-    let s = ClothSettings {
+    let s = ClothSettings(SimSettings {
         substeps: AdaptiveSubsteps::default().substeps(
             1,
             1.0 / 60.0,
             Integrator::ExplicitEuler,
-            bevy_cloth::adaptive::stiffest_mode(
+            bevy_cloth::sim::adaptive::stiffest_mode(
                 &resting,
                 &cloth.connections,
                 &cloth.particles.positions,
@@ -302,8 +302,8 @@ fn explicit_euler_on_the_sharp_crease_needs_the_tension_term() {
             ..default()
         },
         adaptive: None,
-        ..resting
-    };
+        ..resting.0
+    });
     assert!(s.substeps < 500, "{}", s.substeps);
     let (mut app, e) = spawn((cloth, ClothCreases(vec![crease])), s);
     for _ in 0..180 {
@@ -368,7 +368,7 @@ fn the_smallest_grid_3x3() {
 fn zero_gravity_with_large_initial_velocities() {
     each_integrator(0.1, |i| {
         let mut cloth = hanging(GRID);
-        let p = &mut cloth.particles;
+        let p = &mut cloth.particles.0;
         for (k, v) in p.velocities.iter_mut().enumerate() {
             // Pinned particles keep their (zero) prescribed velocity.
             if p.inverse_masses[k] > 0.0 {

@@ -115,10 +115,10 @@ fn pin_holds_a_particle_in_place_and_unpin_lets_it_go() {
 /// of 8 m/s wind from `direction`.
 fn blown(direction: Vec3) -> f32 {
     let mut app = app();
-    app.insert_resource(ClothWind {
+    app.insert_resource(ClothWind(Wind {
         velocity: direction * 8.0,
         ..default()
-    });
+    }));
     let cloth = app.world_mut().spawn(hanging(15)).id();
     let start = particles(&app, cloth).positions[112];
     for _ in 0..120 {

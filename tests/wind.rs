@@ -11,7 +11,7 @@ mod common;
 
 use bevy::ecs::message::Messages;
 use bevy::prelude::*;
-use bevy_cloth::guard::ClothDiverged;
+use bevy_cloth::plugin::events::ClothDiverged;
 use bevy_cloth::prelude::*;
 use common::app;
 
@@ -28,12 +28,12 @@ fn flag(material: ClothMaterial, speed: f32) -> (f32, f32, usize) {
         .build()
         .unwrap();
     let e = app.world_mut().spawn(cloth).id();
-    app.insert_resource(ClothWind {
+    app.insert_resource(ClothWind(Wind {
         velocity: Vec3::new(speed, 0.0, 0.3 * speed),
         gust_amplitude: 0.5,
         gust_frequency: 1.3,
         ..default()
-    });
+    }));
     let (mut peak, mut late, mut trips) = (0.0f32, Vec::new(), 0);
     for k in 0..600 {
         app.update();

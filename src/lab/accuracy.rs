@@ -19,11 +19,12 @@ use std::time::Instant;
 
 use bevy::math::{Quat, Vec3};
 
-use crate::cloth::{ClothBuilder, ClothBundle, GridCorner};
-use crate::integrate::StepBuffers;
-use crate::material::ClothMaterial;
-use crate::settings::{ClothModel, ClothSettings, Integrator};
-use crate::step::{ClothStats, step_cloth};
+use crate::plugin::builder::{ClothBuilder, ClothBundle, GridCorner};
+use crate::plugin::components::ClothStats;
+use crate::plugin::material::ClothMaterial;
+use crate::sim::integrate::StepBuffers;
+use crate::sim::settings::{ClothModel, Integrator, SimSettings};
+use crate::sim::step::step_cloth;
 
 /// Simulated seconds of a stability trial.
 pub const TRIAL_SECONDS: f32 = 5.0;
@@ -48,8 +49,8 @@ pub enum Preset {
 impl Preset {
     /// Settings of this preset for `model` and `integrator` (one substep:
     /// the trials step the cloth themselves).
-    pub fn settings(self, model: ClothModel, integrator: Integrator) -> ClothSettings {
-        let mut s = ClothSettings::default()
+    pub fn settings(self, model: ClothModel, integrator: Integrator) -> SimSettings {
+        let mut s = SimSettings::default()
             .with_model(model)
             .with_integrator(integrator, 1)
             .without_adaptive();
@@ -132,7 +133,7 @@ impl Trial {
 
 /// Runs the scene for [`TRIAL_SECONDS`] at step `dt` (s), stopping early
 /// once it is non-finite or past 10× the strain bound.
-pub fn trial(grid: u32, settings: &ClothSettings, dt: f32, strain_bound: f32) -> Trial {
+pub fn trial(grid: u32, settings: &SimSettings, dt: f32, strain_bound: f32) -> Trial {
     let mut cloth = scene(grid);
     let mut buffers = StepBuffers::new(cloth.particles.len());
     let mut stats = ClothStats::default();
@@ -233,7 +234,7 @@ pub fn max_stable_dt(
 /// steps each, after one untimed warm-up run, on the scene at step `dt`.
 pub fn micros_per_step(
     grid: u32,
-    settings: &ClothSettings,
+    settings: &SimSettings,
     dt: f32,
     steps: usize,
     reps: usize,
@@ -270,7 +271,7 @@ pub fn micros_per_step(
 /// `None` if they left the finite numbers.
 pub fn positions_after(
     grid: u32,
-    settings: &ClothSettings,
+    settings: &SimSettings,
     dt: f32,
     seconds: f32,
 ) -> Option<Vec<Vec3>> {
@@ -289,7 +290,7 @@ pub fn positions_after(
     cloth
         .particles
         .is_finite()
-        .then_some(cloth.particles.positions)
+        .then_some(cloth.particles.0.positions)
 }
 
 /// RMS distance between two position sets, m.

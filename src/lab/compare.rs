@@ -17,11 +17,11 @@
 
 use bevy::math::Vec3;
 
-use crate::grid::Cloth;
-use crate::integrate::StepBuffers;
 use crate::lab::accuracy::scene;
-use crate::settings::{ClothModel, ClothSettings, Integrator};
-use crate::step::step_cloth;
+use crate::plugin::components::Cloth;
+use crate::sim::integrate::StepBuffers;
+use crate::sim::settings::{ClothModel, Integrator, SimSettings};
+use crate::sim::step::step_cloth;
 
 /// The step both models are integrated at, s.
 pub const STEP: f32 = 5e-4;
@@ -73,7 +73,7 @@ pub fn wrinkle_measure(cloth: &Cloth, x: &[Vec3]) -> f32 {
 
 /// Runs the script (module docs) on `model` with the cotton settings.
 pub fn pull_and_release(model: ClothModel) -> Residual {
-    let settings = ClothSettings::default()
+    let settings = SimSettings::default()
         .with_model(model)
         .with_integrator(Integrator::Rk4, 1)
         .without_adaptive();
@@ -89,7 +89,7 @@ pub fn pull_and_release(model: ClothModel) -> Residual {
         finite: true,
     };
     let steps = |s: f32| (s / STEP).round() as usize;
-    let mut step = |cloth: &mut crate::cloth::ClothBundle, target: Option<Vec3>| {
+    let mut step = |cloth: &mut crate::plugin::builder::ClothBundle, target: Option<Vec3>| {
         let p = &mut cloth.particles;
         if let Some(t) = target {
             p.inverse_masses[corner] = 0.0;
@@ -99,7 +99,7 @@ pub fn pull_and_release(model: ClothModel) -> Residual {
         if let Some(t) = target {
             p.positions[corner] = t;
         }
-        let strain = crate::connections::max_strain(cloth.connections.type1(), &p.positions);
+        let strain = crate::sim::connections::max_strain(cloth.connections.type1(), &p.positions);
         out.peak_strain = out.peak_strain.max(strain);
         out.finite &= p.is_finite();
     };
@@ -133,7 +133,7 @@ pub fn pull_and_release(model: ClothModel) -> Residual {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::cloth::ClothBuilder;
+    use crate::plugin::builder::ClothBuilder;
 
     #[test]
     fn a_flat_sheet_has_no_wrinkles_and_a_fold_has_some() {

@@ -1,5 +1,5 @@
 //! The buckling curve `g(s)` looked up in its table of 32 quartic pieces
-//! on `s ∈ [0, 1]` (built by `model::buckling::BucklingTable`), one value
+//! on `s ∈ [0, 1]` (built by `sim::model::buckling::BucklingTable`), one value
 //! at a time ([`g`], the reference) or a slice at a time with AVX2's
 //! gathers ([`g_in_place`]): the compiler does not vectorise the lookup.
 

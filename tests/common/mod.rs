@@ -4,9 +4,10 @@
 use bevy::prelude::*;
 use bevy::time::TimeUpdateStrategy;
 use bevy::transform::TransformPlugin;
-use bevy_cloth::integrate::StepBuffers;
+use bevy_cloth::ClothStats;
 use bevy_cloth::prelude::*;
-use bevy_cloth::step::{ClothStats, step_cloth};
+use bevy_cloth::sim::integrate::StepBuffers;
+use bevy_cloth::sim::step::step_cloth;
 
 /// The paper's scene (MODEL.md §10.2, §11): an `n × n`, 1 m cotton cloth
 /// standing in the XY plane, row 0 at y = 2 m, pinned at its two top corners.

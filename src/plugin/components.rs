@@ -1,0 +1,202 @@
+//! The components of a cloth entity that hold the simulation's state: thin
+//! newtypes over the [`sim`](crate::sim) types, which they dereference to,
+//! so `particles.positions` reads the same on a component as on the plain
+//! type; and the per-cloth forces and statistics of a fixed step.
+
+use bevy::math::Vec3;
+use bevy::prelude::{
+    Component, Deref, DerefMut, Reflect, ReflectComponent, ReflectDefault, ReflectResource,
+    Resource,
+};
+
+use crate::sim::connections::{Connections, max_strain};
+use crate::sim::grid::Grid;
+use crate::sim::particles::Particles;
+use crate::sim::settings::{ClothModel, Integrator, SimSettings};
+
+/// A rectangular cloth: one entity whose particles and connections are
+/// [`ClothParticles`] and [`ClothConnections`]. Make it with
+/// [`ClothBuilder`](crate::ClothBuilder); [`ClothPlugin`](crate::ClothPlugin)
+/// makes it require the step's other components (forces, stats, grabs,
+/// material, scratch, the previous positions and a `Transform`).
+///
+/// Dereferences to its [`Grid`] (columns, rows, rest size in m).
+/// Particles are simulated in world space; keep the entity's `Transform` at
+/// identity unless you want the rendered mesh offset from the simulation.
+#[derive(Component, Clone, Debug, PartialEq, Reflect, Deref, DerefMut)]
+#[reflect(Component)]
+pub struct Cloth(pub Grid);
+
+/// Positions (m), velocities (m/s) and masses (kg) of a cloth's particles:
+/// the cloth entity's [`Particles`], which it dereferences to.
+///
+/// ```
+/// # use bevy::prelude::*;
+/// # use bevy_cloth::prelude::*;
+/// /// The height (m) of every cloth's lowest particle.
+/// fn lowest(cloths: Query<&ClothParticles>) {
+///     for particles in &cloths {
+///         let low = particles.positions.iter().map(|p| p.y).fold(f32::INFINITY, f32::min);
+///         info!("lowest particle at {low} m");
+///     }
+/// }
+/// ```
+#[derive(Component, Clone, Debug, Default, PartialEq, Reflect, Deref, DerefMut)]
+#[reflect(Component)]
+pub struct ClothParticles(pub Particles);
+
+impl ClothParticles {
+    /// Particles at rest at `positions` (m) with masses `masses` (kg, > 0).
+    pub fn new(positions: Vec<Vec3>, masses: Vec<f32>) -> Self {
+        Self(Particles::new(positions, masses))
+    }
+}
+
+/// The links a cloth's internal forces act on: the cloth entity's
+/// [`Connections`], which it dereferences to.
+#[derive(Component, Clone, Debug, Default, PartialEq, Reflect, Deref, DerefMut)]
+#[reflect(Component)]
+pub struct ClothConnections(pub Connections);
+
+impl ClothConnections {
+    /// Every connection of a `cols × rows` grid resting at `rest` (m); see
+    /// [`Connections::grid`].
+    pub fn grid(cols: u32, rows: u32, rest: &[Vec3]) -> Self {
+        Self(Connections::grid(cols, rows, rest))
+    }
+}
+
+/// How one cloth is simulated: on a cloth entity, overrides
+/// [`ClothDefaults`]. Dereferences to its [`SimSettings`].
+///
+/// ```
+/// # use bevy::prelude::*;
+/// # use bevy_cloth::prelude::*;
+/// fn spawn(mut commands: Commands) -> Result<(), ClothError> {
+///     // RK4 with adaptive substeps and no damping, for this cloth only.
+///     let mut settings = ClothSettings::default().with_integrator(Integrator::Rk4, 1);
+///     settings.damping = 0.0;
+///     commands.spawn((ClothBuilder::new(16, 16).build()?, settings));
+///     // Every field at once.
+///     let stiff = ClothSettings(SimSettings { substeps: 2, ..default() });
+///     commands.spawn((ClothBuilder::new(16, 16).build()?, stiff));
+///     Ok(())
+/// }
+/// ```
+#[derive(Component, Clone, Debug, Default, PartialEq, Reflect, Deref, DerefMut)]
+#[reflect(Component, Default)]
+pub struct ClothSettings(pub SimSettings);
+
+impl ClothSettings {
+    /// The same settings with another model ([`SimSettings::with_model`]).
+    pub fn with_model(self, model: ClothModel) -> Self {
+        Self(self.0.with_model(model))
+    }
+
+    /// The same settings with another integrator and least substep count
+    /// ([`SimSettings::with_integrator`]).
+    pub fn with_integrator(self, integrator: Integrator, substeps: u32) -> Self {
+        Self(self.0.with_integrator(integrator, substeps))
+    }
+
+    /// The same settings with adaptive substeps off
+    /// ([`SimSettings::without_adaptive`]).
+    pub fn without_adaptive(self) -> Self {
+        Self(self.0.without_adaptive())
+    }
+}
+
+impl From<SimSettings> for ClothSettings {
+    fn from(settings: SimSettings) -> Self {
+        Self(settings)
+    }
+}
+
+/// The settings of every cloth that has no [`ClothSettings`] of its own.
+#[derive(Resource, Clone, Debug, Default, PartialEq, Reflect, Deref, DerefMut)]
+#[reflect(Resource, Default)]
+pub struct ClothDefaults(pub SimSettings);
+
+/// External forces on each particle in N, held constant through one fixed
+/// step and cleared after it.
+///
+/// Systems in [`ClothSystems::Forces`](crate::plugin::schedule::ClothSystems::Forces)
+/// add to it (wind, a grab spring, a game's explosion); an empty vector
+/// means no external force and costs nothing.
+#[derive(Component, Clone, Debug, Default, PartialEq, Reflect)]
+#[reflect(Component)]
+pub struct ClothForces(pub Vec<Vec3>);
+
+impl ClothForces {
+    /// Adds `force` (N) to particle `p`, sizing the buffer for `count`
+    /// particles on first use. Out-of-range indices are ignored.
+    pub fn add(&mut self, p: usize, force: Vec3, count: usize) {
+        if self.0.len() != count {
+            self.0.clear();
+            self.0.resize(count, Vec3::ZERO);
+        }
+        if let Some(f) = self.0.get_mut(p) {
+            *f += force;
+        }
+    }
+}
+
+/// What the last fixed step of a cloth looked like.
+///
+/// ```
+/// # use bevy::prelude::*;
+/// # use bevy_cloth::prelude::*;
+/// fn report(cloths: Query<(Entity, &ClothStats)>) {
+///     for (cloth, stats) in &cloths {
+///         if stats.max_strain > 0.1 {
+///             info!("cloth {cloth} stretched {:.0} %", 100.0 * stats.max_strain);
+///         }
+///     }
+/// }
+/// ```
+#[derive(Component, Clone, Debug, Default, PartialEq, Reflect)]
+#[reflect(Component)]
+pub struct ClothStats {
+    /// Fixed steps simulated so far.
+    pub steps: u64,
+    /// Largest stretch `(ℓ − L)/L` of the stretch links (Type 1 for Choi–Ko,
+    /// structural and shear for Lander), dimensionless.
+    pub max_strain: f32,
+    /// Kinetic energy of the free particles in J.
+    pub kinetic_energy: f32,
+    /// Whether every position and velocity is finite.
+    pub finite: bool,
+    /// Conjugate-gradient iterations of the last implicit substep (0 for
+    /// the explicit integrators).
+    pub solver_iterations: u32,
+    /// Wall-clock time of the last fixed step's integration, µs (for
+    /// display; never asserted on).
+    pub step_micros: f32,
+    /// Substeps the last step ran with (more than the settings' after the
+    /// divergence guard stepped in).
+    pub substeps: u32,
+    /// Integrator the last step ran with.
+    pub integrator: crate::sim::settings::Integrator,
+    /// Speed of the fastest free particle, m/s.
+    pub max_speed: f32,
+    /// Whether the cloth is at rest (see [`ClothAtRest`](crate::plugin::events::ClothAtRest)).
+    pub resting: bool,
+}
+
+impl ClothStats {
+    /// Measures `particles` against `connections`.
+    pub fn measure(&mut self, particles: &Particles, connections: &Connections) {
+        self.measure_with(
+            particles,
+            max_strain(connections.type1(), &particles.positions),
+        );
+    }
+
+    /// [`ClothStats::measure`] given the largest strain, measured already.
+    pub(crate) fn measure_with(&mut self, particles: &Particles, max_strain: f32) {
+        self.max_strain = max_strain;
+        self.kinetic_energy = particles.kinetic_energy();
+        self.max_speed = particles.max_speed();
+        self.finite = particles.is_finite();
+    }
+}

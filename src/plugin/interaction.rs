@@ -1,0 +1,288 @@
+//! Grabbing particles from game code (no mouse needed): [`ClothGrabs`].
+//!
+//! A grab holds one particle and pulls it towards a world-space target,
+//! either **kinematically** (the particle is pinned and moved to the target
+//! over each fixed step, like an anchor) or through a **spring** (a force
+//! `k(target − x) − c·v` in [`ClothForces`], MODEL.md §5b, as Lander's
+//! mouse does). Pin and unpin live on [`ClothParticles`]; anchors that ride
+//! on entities are [`ClothAnchors`](crate::ClothAnchors).
+//!
+//! ```
+//! # use bevy::prelude::*;
+//! # use bevy_cloth::prelude::*;
+//! /// Drag the particle nearest a hand towards it, every frame.
+//! fn pull(mut cloths: Query<(&ClothParticles, &mut ClothGrabs)>, hand: Single<&Transform, With<Camera>>) {
+//!     for (particles, mut grabs) in &mut cloths {
+//!         if grabs.is_empty() {
+//!             grabs.grab_nearest(particles, hand.translation, GrabMode::Kinematic);
+//!         }
+//!         grabs.set_targets(hand.translation);
+//!     }
+//! }
+//! ```
+
+use bevy::math::Vec3;
+use bevy::prelude::{Commands, Component, Entity, Query, Reflect, ReflectComponent, Res, Time};
+use bevy::time::Fixed;
+
+use crate::plugin::components::ClothForces;
+use crate::plugin::components::ClothParticles;
+use crate::plugin::events::{ClothGrabbed, ClothReleased};
+
+/// How a grab moves its particle.
+#[derive(Clone, Copy, Debug, PartialEq, Reflect)]
+pub enum GrabMode {
+    /// Pinned and carried to the target each fixed step (exact, infinitely
+    /// stiff). On release a free particle keeps the velocity it was moving
+    /// at (a flick); one that was pinned before the grab stays pinned, at
+    /// rest, where the grab left it.
+    Kinematic,
+    /// A zero-rest-length spring to the target.
+    Spring {
+        /// Spring constant in N/m.
+        stiffness: f32,
+        /// Damping of the particle's velocity in N·s/m.
+        damping: f32,
+    },
+}
+
+/// One held particle.
+#[derive(Clone, Copy, Debug, PartialEq, Reflect)]
+pub struct Grab {
+    /// The held particle.
+    pub particle: u32,
+    /// Where it is pulled to, world space, m.
+    pub target: Vec3,
+    /// How.
+    pub mode: GrabMode,
+    /// Whether the particle was pinned before a kinematic grab took it (so
+    /// release leaves it pinned).
+    was_pinned: Option<bool>,
+    /// Whether the grab has acted (and [`ClothGrabbed`] was triggered).
+    held: bool,
+}
+
+/// The particles of this cloth held by the game or the player.
+#[derive(Component, Clone, Debug, Default, PartialEq, Reflect)]
+#[reflect(Component)]
+pub struct ClothGrabs {
+    grabs: Vec<Grab>,
+    /// Released grabs that had acted, to undo and report at the next step:
+    /// (particle, pinned before a kinematic grab).
+    #[reflect(ignore)]
+    released: Vec<(u32, Option<bool>)>,
+}
+
+impl ClothGrabs {
+    /// Holds `particle` (replacing any grab of it) and pulls it to `target` (m).
+    pub fn grab(&mut self, particle: u32, target: Vec3, mode: GrabMode) {
+        self.release(particle);
+        self.grabs.push(Grab {
+            particle,
+            target,
+            mode,
+            was_pinned: None,
+            held: false,
+        });
+    }
+
+    /// Holds the particle nearest `point` (m), pulling it to `point`.
+    /// Returns its index (`None` for an empty cloth or a non-finite point).
+    pub fn grab_nearest(
+        &mut self,
+        particles: &ClothParticles,
+        point: Vec3,
+        mode: GrabMode,
+    ) -> Option<u32> {
+        let p = nearest(particles, point)?;
+        self.grab(p, point, mode);
+        Some(p)
+    }
+
+    /// Moves the target of the grab of `particle`; `false` if it is not held.
+    pub fn set_target(&mut self, particle: u32, target: Vec3) -> bool {
+        match self.grabs.iter_mut().find(|g| g.particle == particle) {
+            Some(g) => {
+                g.target = target;
+                true
+            }
+            None => false,
+        }
+    }
+
+    /// Moves the target of every grab.
+    pub fn set_targets(&mut self, target: Vec3) {
+        for g in &mut self.grabs {
+            g.target = target;
+        }
+    }
+
+    /// Lets go of `particle` (a kinematically held one gets its mass back
+    /// at the next step unless it was pinned before).
+    pub fn release(&mut self, particle: u32) {
+        let mut released = Vec::new();
+        self.grabs.retain(|g| {
+            if g.particle == particle {
+                if g.held {
+                    released.push((g.particle, g.was_pinned));
+                }
+                false
+            } else {
+                true
+            }
+        });
+        self.released.extend(released);
+    }
+
+    /// Lets go of everything.
+    pub fn release_all(&mut self) {
+        for g in std::mem::take(&mut self.grabs) {
+            if g.held {
+                self.released.push((g.particle, g.was_pinned));
+            }
+        }
+    }
+
+    /// The current grabs.
+    pub fn grabs(&self) -> &[Grab] {
+        &self.grabs
+    }
+
+    /// Whether nothing is held.
+    pub fn is_empty(&self) -> bool {
+        self.grabs.is_empty()
+    }
+}
+
+/// Index of the particle nearest `point` (m).
+pub fn nearest(particles: &ClothParticles, point: Vec3) -> Option<u32> {
+    if !point.is_finite() {
+        return None;
+    }
+    particles
+        .positions
+        .iter()
+        .enumerate()
+        .map(|(i, x)| (i, x.distance_squared(point)))
+        .filter(|(_, d)| d.is_finite())
+        .min_by(|a, b| a.1.total_cmp(&b.1))
+        .map(|(i, _)| i as u32)
+}
+
+/// Run condition of the grab systems: some cloth holds or has just let go
+/// of a particle.
+pub(crate) fn grabs_active(cloths: Query<&ClothGrabs>) -> bool {
+    cloths
+        .iter()
+        .any(|g| !g.grabs.is_empty() || !g.released.is_empty())
+}
+
+/// [`ClothSystems::Forces`](crate::ClothSystems::Forces): kinematic grabs
+/// take the velocity that reaches their target by the step's end; spring
+/// grabs add their force. Triggers [`ClothGrabbed`] and [`ClothReleased`].
+pub(crate) fn apply_grabs(
+    _main: crate::plugin::schedule::MainThread,
+    mut commands: Commands,
+    time: Res<Time<Fixed>>,
+    mut cloths: Query<(
+        Entity,
+        &mut ClothGrabs,
+        &mut ClothParticles,
+        &mut ClothForces,
+    )>,
+) {
+    let dt = time.timestep().as_secs_f32();
+    for (entity, mut grabs, mut particles, mut forces) in &mut cloths {
+        // Nothing held or let go: no work, and nothing marked changed.
+        if grabs.grabs.is_empty() && grabs.released.is_empty() {
+            continue;
+        }
+        let n = particles.len();
+        let ClothGrabs { grabs, released } = &mut *grabs;
+        for (p, was_pinned) in released.drain(..) {
+            match was_pinned {
+                // A pin stays where the grab left it, at rest.
+                Some(true) => {
+                    particles.pin(p as usize);
+                }
+                Some(false) => {
+                    particles.unpin(p as usize);
+                }
+                None => {}
+            }
+            commands.trigger(ClothReleased {
+                entity,
+                particle: p,
+            });
+        }
+        for g in grabs.iter_mut() {
+            let p = g.particle as usize;
+            if p >= n || !g.target.is_finite() {
+                continue;
+            }
+            if !g.held {
+                g.held = true;
+                commands.trigger(ClothGrabbed {
+                    entity,
+                    particle: g.particle,
+                });
+            }
+            match g.mode {
+                GrabMode::Kinematic => {
+                    if g.was_pinned.is_none() {
+                        g.was_pinned = Some(particles.is_pinned(p));
+                    }
+                    particles.inverse_masses[p] = 0.0;
+                    particles.velocities[p] = (g.target - particles.positions[p]) / dt;
+                }
+                GrabMode::Spring { stiffness, damping } => {
+                    let f = stiffness * (g.target - particles.positions[p])
+                        - damping * particles.velocities[p];
+                    if f.is_finite() {
+                        forces.add(p, f, n);
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// [`ClothSystems::Writeback`](crate::ClothSystems::Writeback): kinematic
+/// grabs sit exactly on their targets.
+pub(crate) fn snap_grabs(
+    _main: crate::plugin::schedule::MainThread,
+    mut cloths: Query<(&ClothGrabs, &mut ClothParticles)>,
+) {
+    for (grabs, mut particles) in &mut cloths {
+        for g in &grabs.grabs {
+            let p = g.particle as usize;
+            if g.mode == GrabMode::Kinematic && p < particles.len() && g.target.is_finite() {
+                particles.positions[p] = g.target;
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn grab_release_and_nearest() {
+        let particles = ClothParticles::new(vec![Vec3::ZERO, Vec3::X, Vec3::Y], vec![1.0; 3]);
+        let mut grabs = ClothGrabs::default();
+        assert_eq!(
+            grabs.grab_nearest(&particles, Vec3::new(0.9, 0.1, 0.0), GrabMode::Kinematic),
+            Some(1)
+        );
+        assert_eq!(
+            grabs.grab_nearest(&particles, Vec3::NAN, GrabMode::Kinematic),
+            None
+        );
+        assert!(grabs.set_target(1, Vec3::ONE) && !grabs.set_target(2, Vec3::ONE));
+        grabs.grab(1, Vec3::ZERO, GrabMode::Kinematic);
+        assert_eq!(grabs.grabs().len(), 1);
+        grabs.release(1);
+        assert!(grabs.is_empty());
+    }
+}

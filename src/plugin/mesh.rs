@@ -1,0 +1,342 @@
+//! The live mesh: every cloth gets a [`Mesh3d`] whose positions and smooth
+//! normals follow the particles after each frame's fixed steps.
+//!
+//! - Runs in `PostUpdate` ([`ClothMeshSystems`]), before the asset events, so
+//!   Bevy's bounds system sees the changed mesh in the same frame and keeps
+//!   the `Aabb` right for culling and picking (no `NoFrustumCulling`, no
+//!   `NoAutoAabb` needed).
+//! - Writes go through `Mesh::try_attribute_mut`; a mesh that was taken by
+//!   the render world, lost an attribute or changed size is rebuilt, never a
+//!   panic.
+//! - Vertex positions are the particles' world positions brought into the
+//!   cloth entity's local space, so any cloth `Transform` renders correctly.
+//! - **Interpolation** ([`ClothMeshSettings::interpolate`], on by default):
+//!   the mesh shows the cloth between its last two fixed steps, at the
+//!   fraction of a step that `Time<Fixed>` has accumulated
+//!   (`overstep_fraction`), so a 144 Hz display does not show a 60 Hz cloth
+//!   stepping. The mesh is one fixed step behind the simulation, as with
+//!   any interpolation. The positions at the start of each step are kept in
+//!   [`ClothPrevious`].
+//! - Only cloths that moved are written: a paused or resting cloth costs
+//!   nothing here. A cloth whose state is not finite keeps its last good
+//!   mesh, so a blow-up never reaches the renderer or picking.
+//! - With no `Assets<Mesh>` (a headless app without asset plugins), none of
+//!   this runs.
+
+use bevy::asset::{AssetEventSystems, Assets, RenderAssetUsages};
+use bevy::ecs::schedule::SystemSet;
+use bevy::math::{Affine3A, Vec3};
+use bevy::mesh::{Indices, Mesh, Mesh3d, PrimitiveTopology, VertexAttributeValues};
+use bevy::prelude::{
+    Commands, Component, DetectChanges, Entity, GlobalTransform, Local, Query, Ref, Reflect,
+    ReflectResource, Res, ResMut, Resource, Time, Without,
+};
+use bevy::time::Fixed;
+
+use crate::plugin::components::Cloth;
+use crate::plugin::components::ClothParticles;
+
+/// How cloth meshes are drawn.
+///
+/// ```
+/// # use bevy::prelude::*;
+/// # use bevy_cloth::prelude::*;
+/// # let mut app = App::new();
+/// // Show each fixed step as it is, without interpolation.
+/// app.insert_resource(ClothMeshSettings { interpolate: false });
+/// ```
+#[derive(Resource, Clone, Debug, PartialEq, Reflect)]
+#[reflect(Resource)]
+pub struct ClothMeshSettings {
+    /// Whether meshes show the cloth interpolated between its last two
+    /// fixed steps (module docs); off, they show the last step as it is.
+    pub interpolate: bool,
+}
+
+impl Default for ClothMeshSettings {
+    fn default() -> Self {
+        Self { interpolate: true }
+    }
+}
+
+/// The positions (m, world) of a cloth's particles at the start of its
+/// last fixed step, for [`ClothMeshSettings::interpolate`]; written at the
+/// start of every step ([`ClothSystems::Prepare`](crate::ClothSystems::Prepare)).
+#[derive(Component, Clone, Debug, Default)]
+pub struct ClothPrevious {
+    /// Positions in m.
+    pub positions: Vec<Vec3>,
+    /// Whether the last step left every particle where it was, so there is
+    /// nothing to interpolate.
+    pub still: bool,
+}
+
+/// Keeps each cloth's [`ClothPrevious`]: the positions before this step.
+pub(crate) fn remember_positions(
+    _main: crate::plugin::schedule::MainThread,
+    mut cloths: Query<(&ClothParticles, &mut ClothPrevious)>,
+) {
+    for (particles, mut previous) in &mut cloths {
+        let previous = &mut *previous;
+        previous.still = previous.positions == particles.positions;
+        if !previous.still {
+            previous.positions.clone_from(&particles.positions);
+        }
+    }
+}
+
+/// The `PostUpdate` sets that keep cloth meshes in step with the simulation.
+#[derive(SystemSet, Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum ClothMeshSystems {
+    /// New cloths get a mesh (and, with the `render` feature, a default
+    /// double-sided material unless they have one).
+    Attach,
+    /// Positions and normals are written into the mesh asset.
+    Sync,
+}
+
+/// Area-weighted smooth vertex normals of a `cols × rows` grid whose
+/// triangles are those of [`Cloth::triangles`]. `x` in any length unit;
+/// `out` receives unit vectors (+Y where a vertex has no area around it).
+pub fn grid_normals(cols: u32, rows: u32, x: &[Vec3], out: &mut [[f32; 3]]) {
+    out.fill([0.0; 3]);
+    let mut add = |p: u32, n: Vec3| {
+        let o = &mut out[p as usize];
+        *o = (Vec3::from_array(*o) + n).to_array();
+    };
+    for j in 0..rows - 1 {
+        for i in 0..cols - 1 {
+            let (a, b) = (j * cols + i, j * cols + i + 1);
+            let (c, d) = (b + cols, a + cols);
+            let (xa, xb, xc, xd) = (x[a as usize], x[b as usize], x[c as usize], x[d as usize]);
+            // Twice the area times the unit normal of (a, d, c) and (a, c, b).
+            let n1 = (xd - xa).cross(xc - xa);
+            let n2 = (xc - xa).cross(xb - xa);
+            for (p, n) in [(a, n1 + n2), (d, n1), (c, n1 + n2), (b, n2)] {
+                add(p, n);
+            }
+        }
+    }
+    for o in out.iter_mut() {
+        *o = Vec3::from_array(*o)
+            .try_normalize()
+            .unwrap_or(Vec3::Y)
+            .to_array();
+    }
+}
+
+/// A mesh for `cloth` with vertices at `positions` (the mesh's local space):
+/// positions, smooth normals, UVs in `[0, 1]²` along columns and rows, and
+/// the triangles of [`Cloth::triangles`]. Kept in both worlds so the CPU copy
+/// can be rewritten and ray-cast for picking.
+pub fn cloth_mesh(cloth: &Cloth, positions: &[Vec3]) -> Mesh {
+    let mut normals = vec![[0.0; 3]; positions.len()];
+    grid_normals(cloth.cols, cloth.rows, positions, &mut normals);
+    let (cu, rv) = ((cloth.cols - 1) as f32, (cloth.rows - 1) as f32);
+    let uvs: Vec<[f32; 2]> = (0..cloth.len() as u32)
+        .map(|p| [(p % cloth.cols) as f32 / cu, (p / cloth.cols) as f32 / rv])
+        .collect();
+    let indices: Vec<u32> = cloth.triangles().into_iter().flatten().collect();
+    Mesh::new(
+        PrimitiveTopology::TriangleList,
+        RenderAssetUsages::default(),
+    )
+    .with_inserted_attribute(
+        Mesh::ATTRIBUTE_POSITION,
+        positions.iter().map(|p| p.to_array()).collect::<Vec<_>>(),
+    )
+    .with_inserted_attribute(Mesh::ATTRIBUTE_NORMAL, normals)
+    .with_inserted_attribute(Mesh::ATTRIBUTE_UV_0, uvs)
+    .with_inserted_indices(Indices::U32(indices))
+}
+
+/// World-to-local transform of a cloth entity, or `None` for the identity.
+fn to_local(transform: Option<&GlobalTransform>) -> Option<Affine3A> {
+    transform
+        .map(|t| t.affine())
+        .filter(|a| *a != Affine3A::IDENTITY)
+        .map(|a| a.inverse())
+}
+
+fn local_positions(particles: &ClothParticles, inv: Option<Affine3A>) -> Vec<Vec3> {
+    local_of(&particles.positions, inv)
+}
+
+/// Positions `x` (m, world) in the cloth's local space.
+fn local_of(x: &[Vec3], inv: Option<Affine3A>) -> Vec<Vec3> {
+    match inv {
+        Some(inv) => x.iter().map(|&p| inv.transform_point3(p)).collect(),
+        None => x.to_vec(),
+    }
+}
+
+/// How many vertices `mesh` has (`None` without readable positions), so a
+/// resized cloth gets a new mesh.
+fn vertex_count(mesh: &Mesh) -> Option<usize> {
+    match mesh.try_attribute(Mesh::ATTRIBUTE_POSITION) {
+        Ok(VertexAttributeValues::Float32x3(p)) => Some(p.len()),
+        _ => None,
+    }
+}
+
+/// [`ClothMeshSystems::Attach`]: gives each new cloth its mesh.
+pub(crate) fn attach_cloth_meshes(
+    mut commands: Commands,
+    mut meshes: ResMut<Assets<Mesh>>,
+    cloths: Query<(Entity, &Cloth, &ClothParticles, Option<&GlobalTransform>), Without<Mesh3d>>,
+) {
+    for (entity, cloth, particles, transform) in &cloths {
+        if particles.len() != cloth.len() || cloth.cols < 2 || cloth.rows < 2 {
+            continue;
+        }
+        let positions = local_positions(particles, to_local(transform));
+        let handle = meshes.add(cloth_mesh(cloth, &positions));
+        let mut e = commands.entity(entity);
+        e.try_insert(Mesh3d(handle));
+        #[cfg(feature = "picking")]
+        e.try_insert(bevy::picking::mesh_picking::ray_cast::RayCastBackfaces);
+    }
+}
+
+/// What the mesh sync reads of one cloth.
+type SyncQuery = (
+    &'static Cloth,
+    Ref<'static, ClothParticles>,
+    Option<&'static ClothPrevious>,
+    &'static Mesh3d,
+    Option<&'static GlobalTransform>,
+);
+
+/// [`ClothMeshSystems::Sync`]: writes positions and normals of every cloth
+/// that moved: its particles changed, or it is being interpolated between
+/// two different steps.
+pub(crate) fn sync_cloth_meshes(
+    mut meshes: ResMut<Assets<Mesh>>,
+    settings: Option<Res<ClothMeshSettings>>,
+    time: Option<Res<Time<Fixed>>>,
+    mut shown: Local<Vec<Vec3>>,
+    cloths: Query<SyncQuery>,
+) {
+    let interpolate = settings.is_none_or(|s| s.interpolate);
+    let alpha = time.map_or(1.0, |t| t.overstep_fraction().clamp(0.0, 1.0));
+    for (cloth, particles, previous, mesh3d, transform) in &cloths {
+        let n = cloth.len();
+        let between =
+            previous.filter(|p| interpolate && !p.still && p.positions.len() == n && alpha < 1.0);
+        if !particles.is_changed() && between.is_none() {
+            continue;
+        }
+        // A non-finite state keeps the last good mesh: NaN vertices would
+        // break bounds, culling and picking (Bevy asserts on them).
+        if particles.len() != n || cloth.cols < 2 || cloth.rows < 2 || !particles.is_finite() {
+            continue;
+        }
+        let x: &[Vec3] = match between {
+            Some(previous) => {
+                shown.clear();
+                shown.extend(
+                    previous
+                        .positions
+                        .iter()
+                        .zip(&particles.positions)
+                        .map(|(a, b)| a.lerp(*b, alpha)),
+                );
+                if !shown.iter().all(|x| x.is_finite()) {
+                    continue;
+                }
+                &shown
+            }
+            None => &particles.positions,
+        };
+        let Some(mut mesh) = meshes.get_mut(&mesh3d.0) else {
+            continue;
+        };
+        let inv = to_local(transform);
+        if vertex_count(&mesh) != Some(n) {
+            *mesh = cloth_mesh(cloth, &local_of(x, inv));
+            continue;
+        }
+        if let Ok(VertexAttributeValues::Float32x3(out)) =
+            mesh.try_attribute_mut(Mesh::ATTRIBUTE_POSITION)
+        {
+            for (o, &p) in out.iter_mut().zip(x) {
+                *o = inv.map_or(p, |inv| inv.transform_point3(p)).to_array();
+            }
+        }
+        match mesh.try_attribute_mut(Mesh::ATTRIBUTE_NORMAL) {
+            Ok(VertexAttributeValues::Float32x3(out)) if out.len() == n => {
+                grid_normals(cloth.cols, cloth.rows, x, out);
+                if let Some(inv) = inv {
+                    for o in out.iter_mut() {
+                        let local = inv.transform_vector3(Vec3::from_array(*o));
+                        *o = local.try_normalize().unwrap_or(Vec3::Y).to_array();
+                    }
+                }
+            }
+            _ => *mesh = cloth_mesh(cloth, &local_of(x, inv)),
+        }
+    }
+}
+
+/// Orders the mesh sets in `PostUpdate` before the asset events, so bounds
+/// are recomputed in the same frame.
+pub(crate) fn configure(app: &mut bevy::app::App) {
+    use bevy::app::PostUpdate;
+    use bevy::ecs::query::With;
+    use bevy::ecs::schedule::IntoScheduleConfigs;
+    use bevy::ecs::schedule::common_conditions::{any_match_filter, resource_exists};
+    app.init_resource::<ClothMeshSettings>()
+        .register_type::<ClothMeshSettings>()
+        .add_systems(
+            bevy::app::FixedUpdate,
+            // Outside the cloth sets, so that it runs while they are paused
+            // too: a paused cloth is still, not interpolated.
+            remember_positions
+                .before(crate::ClothSystems::Prepare)
+                .run_if(resource_exists::<Assets<Mesh>>)
+                .run_if(|s: Res<ClothMeshSettings>| s.interpolate),
+        );
+    app.configure_sets(
+        PostUpdate,
+        (ClothMeshSystems::Attach, ClothMeshSystems::Sync)
+            .chain()
+            .before(AssetEventSystems)
+            .run_if(resource_exists::<Assets<Mesh>>),
+    )
+    .add_systems(
+        PostUpdate,
+        (
+            attach_cloth_meshes
+                .run_if(any_match_filter::<(With<Cloth>, Without<Mesh3d>)>)
+                .in_set(ClothMeshSystems::Attach),
+            sync_cloth_meshes.in_set(ClothMeshSystems::Sync),
+        ),
+    );
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn flat_grid_normals_are_up_and_a_fold_tilts_them() {
+        let mut x: Vec<Vec3> = (0..9)
+            .map(|p| Vec3::new((p % 3) as f32, 0.0, (p / 3) as f32))
+            .collect();
+        let mut n = vec![[0.0; 3]; 9];
+        grid_normals(3, 3, &x, &mut n);
+        assert!(
+            n.iter()
+                .all(|v| (Vec3::from_array(*v) - Vec3::Y).length() < 1e-6)
+        );
+        // Lift the last column: the normals there lean towards −X.
+        for p in [2, 5, 8] {
+            x[p].y = 1.0;
+        }
+        grid_normals(3, 3, &x, &mut n);
+        assert!(n[5][0] < -0.1 && (Vec3::from_array(n[5]).length() - 1.0).abs() < 1e-6);
+        // Degenerate (all particles at one point): no NaN.
+        grid_normals(3, 3, &[Vec3::ONE; 9], &mut n);
+        assert!(n.iter().all(|v| *v == [0.0, 1.0, 0.0]));
+    }
+}

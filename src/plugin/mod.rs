@@ -1,0 +1,216 @@
+//! The ECS layer: [`ClothPlugin`], the components of a cloth entity (thin
+//! newtypes over the [`sim`](crate::sim) types, in [`components`]), the
+//! systems that step them in `FixedUpdate`, and everything a game sees of
+//! a cloth: the live mesh, picking, grabs, anchors, colliders, wind,
+//! creases, events, diagnostics, the panel and the debug view.
+//!
+//! What it may import: anything of Bevy, [`sim`](crate::sim),
+//! [`error`](crate::error). Systems gather a cloth's components, call the
+//! `sim` step and write back; they hold no physics of their own beyond
+//! gathering poses and forces.
+
+pub mod anchor;
+pub mod builder;
+pub mod collision;
+pub mod components;
+pub mod crease;
+#[cfg(feature = "debug")]
+pub mod debug;
+pub mod diagnostics;
+pub mod events;
+pub mod interaction;
+pub mod material;
+pub mod mesh;
+#[cfg(feature = "egui")]
+pub mod panel;
+#[cfg(feature = "picking")]
+pub mod picking;
+pub mod pose;
+pub mod schedule;
+pub mod systems;
+pub mod wind;
+
+use bevy::app::{App, FixedUpdate, Plugin};
+use bevy::ecs::schedule::IntoScheduleConfigs;
+use bevy::ecs::schedule::common_conditions::any_with_component;
+
+use crate::plugin::anchor::ClothAnchors;
+use crate::plugin::components::{
+    Cloth, ClothConnections, ClothDefaults, ClothForces, ClothParticles, ClothSettings, ClothStats,
+};
+use crate::plugin::material::ClothMaterial;
+
+/// Adds cloth simulation: the [`ClothDefaults`] resource, the [`ClothSystems`](schedule::ClothSystems)
+/// sets in `FixedUpdate` and the mesh sync in `PostUpdate`.
+///
+/// Needs Bevy's time (`MinimalPlugins` or `DefaultPlugins`); anchors need
+/// `TransformPlugin`; meshes need `Assets<Mesh>` (asset and mesh plugins).
+///
+/// ```no_run
+/// # use bevy::prelude::*;
+/// # use bevy_cloth::prelude::*;
+/// App::new()
+///     .add_plugins(DefaultPlugins)
+///     // Cloths drawn with a custom material, picked by another backend.
+///     .add_plugins(ClothPlugin {
+///         default_material: false,
+///         mesh_picking: false,
+///     })
+///     .run();
+/// ```
+#[derive(Clone, Debug)]
+pub struct ClothPlugin {
+    /// With the `render` feature: give cloths that have no
+    /// `MeshMaterial3d<StandardMaterial>` a double-sided default material.
+    /// Turn off when your cloths use another material type.
+    pub default_material: bool,
+    /// With the `picking` feature: add Bevy's `MeshPickingPlugin` when the
+    /// app has picking (`DefaultPlugins` do) but no mesh picking backend, so
+    /// the mouse can pull a cloth. Turn off when you pick with another
+    /// backend.
+    pub mesh_picking: bool,
+}
+
+impl Default for ClothPlugin {
+    fn default() -> Self {
+        Self {
+            default_material: true,
+            mesh_picking: true,
+        }
+    }
+}
+
+impl Plugin for ClothPlugin {
+    fn build(&self, app: &mut App) {
+        use schedule::ClothSystems::*;
+        app.init_resource::<ClothDefaults>()
+            .register_type::<ClothDefaults>()
+            .register_type::<ClothSettings>()
+            .register_type::<Cloth>()
+            .register_required_components::<Cloth, bevy::transform::components::Transform>()
+            .register_required_components::<Cloth, ClothForces>()
+            .register_required_components::<Cloth, systems::ClothScratch>()
+            .register_required_components::<Cloth, ClothStats>()
+            .register_required_components::<Cloth, interaction::ClothGrabs>()
+            .register_required_components::<Cloth, ClothMaterial>()
+            .register_required_components::<Cloth, mesh::ClothPrevious>()
+            .register_type::<ClothParticles>()
+            .register_type::<ClothConnections>()
+            .register_type::<ClothMaterial>()
+            .register_type::<ClothAnchors>()
+            .register_type::<ClothForces>()
+            .register_type::<ClothStats>()
+            .register_type::<interaction::ClothGrabs>()
+            .register_type::<wind::ClothWind>()
+            .add_message::<events::ClothDiverged>()
+            .register_type::<events::ClothGrabbed>()
+            .register_type::<events::ClothReleased>()
+            .register_type::<events::ClothAtRest>()
+            .register_type::<events::ClothWoke>()
+            .init_resource::<schedule::ClothPause>()
+            .register_type::<schedule::ClothPause>()
+            .configure_sets(
+                FixedUpdate,
+                (Prepare, Crease, Forces, Integrate, Collide, Writeback)
+                    .chain()
+                    .run_if(schedule::cloth_running),
+            )
+            .add_systems(
+                FixedUpdate,
+                (
+                    // A system with nothing to do is skipped by its run
+                    // condition, which costs no hand-off to a pool thread.
+                    (
+                        material::apply_density.run_if(material::materials_changed),
+                        anchor::follow_anchors.run_if(any_with_component::<ClothAnchors>),
+                    )
+                        .chain()
+                        .in_set(Prepare),
+                    (
+                        interaction::apply_grabs.run_if(interaction::grabs_active),
+                        wind::apply_wind.run_if(wind::wind_blows),
+                    )
+                        .chain()
+                        .in_set(Forces),
+                    crease::update_creases
+                        .run_if(any_with_component::<crease::ClothCreases>)
+                        .in_set(Crease),
+                    systems::step_cloths.in_set(Integrate),
+                    (
+                        anchor::snap_anchors.run_if(any_with_component::<ClothAnchors>),
+                        interaction::snap_grabs.run_if(interaction::grabs_active),
+                        systems::finish_step,
+                        schedule::consume_step.run_if(schedule::paused),
+                    )
+                        .chain()
+                        .in_set(Writeback),
+                ),
+            );
+        app.add_observer(anchor::stop_on_remove)
+            .add_observer(crease::remove_creases)
+            .register_type::<crease::ClothCreases>();
+        mesh::configure(app);
+        collision::configure(app);
+        diagnostics::configure(app);
+        #[cfg(feature = "picking")]
+        picking::configure(app);
+        #[cfg(feature = "render")]
+        if self.default_material {
+            app.add_systems(
+                bevy::app::PostUpdate,
+                render::attach_default_material.in_set(mesh::ClothMeshSystems::Attach),
+            );
+        }
+    }
+
+    fn finish(&self, app: &mut App) {
+        // Here rather than in `build`, so that the user's own
+        // `MeshPickingPlugin`, added before or after this one, is seen.
+        #[cfg(feature = "picking")]
+        if self.mesh_picking
+            && app.is_plugin_added::<bevy::picking::PickingPlugin>()
+            && !app.is_plugin_added::<bevy::picking::mesh_picking::MeshPickingPlugin>()
+        {
+            app.add_plugins(bevy::picking::mesh_picking::MeshPickingPlugin);
+        }
+        #[cfg(not(feature = "picking"))]
+        let _ = app;
+    }
+}
+
+#[cfg(feature = "render")]
+mod render {
+    use bevy::asset::{Assets, Handle};
+    use bevy::color::Color;
+    use bevy::pbr::{MeshMaterial3d, StandardMaterial};
+    use bevy::prelude::{Commands, Entity, Local, Query, ResMut, With, Without};
+
+    use crate::plugin::builder::Cloth;
+
+    /// Gives cloths without a material a double-sided, unculled one, so the
+    /// back of the cloth is lit and visible.
+    pub(crate) fn attach_default_material(
+        mut commands: Commands,
+        materials: Option<ResMut<Assets<StandardMaterial>>>,
+        mut handle: Local<Option<Handle<StandardMaterial>>>,
+        cloths: Query<Entity, (With<Cloth>, Without<MeshMaterial3d<StandardMaterial>>)>,
+    ) {
+        let Some(mut materials) = materials else {
+            return;
+        };
+        for entity in &cloths {
+            let material = handle.get_or_insert_with(|| {
+                materials.add(StandardMaterial {
+                    base_color: Color::srgb(0.75, 0.2, 0.2),
+                    perceptual_roughness: 0.9,
+                    double_sided: true,
+                    cull_mode: None,
+                    ..Default::default()
+                })
+            });
+            commands
+                .entity(entity)
+                .try_insert(MeshMaterial3d(material.clone()));
+        }
+    }
+}

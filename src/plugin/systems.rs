@@ -1,0 +1,405 @@
+//! The thin ECS layer of the step: gather a cloth's components, call
+//! [`step_cloth`], write back.
+
+use bevy::ecs::change_detection::Tick;
+use bevy::ecs::system::SystemChangeTick;
+use bevy::log::warn;
+use bevy::math::Vec3;
+use bevy::prelude::{
+    Commands, Component, DetectChanges, Entity, Local, MessageWriter, Query, Ref, Res, ResMut, Time,
+};
+use bevy::tasks::ComputeTaskPool;
+use std::sync::Arc;
+
+use crate::sim::workers::{Pool, Workers};
+use bevy::time::Fixed;
+
+use crate::error::ClothError;
+use crate::plugin::components::ClothConnections;
+use crate::plugin::components::ClothParticles;
+use crate::plugin::components::{ClothDefaults, ClothSettings};
+use bevy::platform::time::Instant;
+use std::sync::atomic::{AtomicU64, Ordering};
+
+use bevy::ecs::query::QueryData;
+
+use crate::plugin::collision::{
+    ClothCollision, ClothCollisionStats, ClothSelfCollision, ColliderScene, SceneContacts,
+    SelfCollisionScratch, bounds,
+};
+use crate::plugin::components::Cloth;
+use crate::plugin::components::{ClothForces, ClothStats};
+use crate::plugin::events::ClothDiverged;
+use crate::plugin::events::{ClothAtRest, ClothWoke, RestChange};
+use crate::plugin::interaction::ClothGrabs;
+use crate::sim::guard::step_guarded;
+
+/// Checks what the step indexes so that user edits can never make it panic:
+/// equal array lengths, and every link inside the particle range.
+pub fn check_cloth(
+    particles: &ClothParticles,
+    connections: &ClothConnections,
+) -> Result<(), ClothError> {
+    check_indices(particles, connections.max_index())
+}
+
+/// [`check_cloth`] given the connections' largest index.
+fn check_indices(particles: &ClothParticles, max_index: Option<u32>) -> Result<(), ClothError> {
+    let n = particles.len();
+    if particles.velocities.len() != n
+        || particles.inverse_masses.len() != n
+        || particles.masses.len() != n
+    {
+        return Err(ClothError::InconsistentParticles);
+    }
+    match max_index {
+        Some(index) if index as usize >= n => Err(ClothError::ParticleOutOfRange {
+            index,
+            count: n as u32,
+        }),
+        _ => Ok(()),
+    }
+}
+
+/// What the step measured of a cloth that the writeback reuses while the
+/// cloth has not changed since: each scan takes some 20–30 µs on a 64×64
+/// cloth, and the writeback would repeat them every fixed step.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct Measured {
+    /// The connections' largest particle index, scanned at this tick.
+    links: Option<(Tick, Option<u32>)>,
+    /// The Type 1 strain of the particles as the step left them at this
+    /// tick (measured by the divergence guard).
+    strain: Option<(Tick, f32)>,
+}
+
+impl Measured {
+    /// The connections' largest index: the last scan's if they have not
+    /// changed since it, else a new scan at `now`.
+    fn max_index(&mut self, connections: &Ref<ClothConnections>, now: Tick) -> Option<u32> {
+        match self.links {
+            Some((at, max)) if !connections.last_changed().is_newer_than(at, now) => max,
+            _ => {
+                let max = connections.max_index();
+                self.links = Some((now, max));
+                max
+            }
+        }
+    }
+
+    /// The step's strain of `particles`, if they have not changed since.
+    fn strain(&self, particles: &Ref<ClothParticles>, now: Tick) -> Option<f32> {
+        self.strain
+            .filter(|&(at, _)| !particles.last_changed().is_newer_than(at, now))
+            .map(|(_, strain)| strain)
+    }
+}
+
+/// Preallocated integrator scratch for one cloth (not reflected).
+#[derive(Component, Clone, Debug, Default)]
+pub struct ClothScratch {
+    /// Stage buffers of the integrators.
+    pub buffers: crate::sim::integrate::StepBuffers,
+    /// Indices of the scene colliders near this cloth in the current step.
+    pub(crate) near: Vec<usize>,
+    /// Whether the cloth was skipped for invalid settings, so the warning is
+    /// logged once.
+    pub(crate) warned_invalid: bool,
+    /// The divergence guard's state.
+    pub(crate) guard: crate::sim::guard::GuardState,
+    /// A divergence to report at the end of the step: reason, substeps,
+    /// integrator, recovered.
+    pub(crate) pending: Option<(
+        crate::sim::guard::Divergence,
+        u32,
+        crate::sim::settings::Integrator,
+        bool,
+    )>,
+    /// Whether a divergence of this cloth was logged already.
+    pub(crate) warned_diverged: bool,
+    /// What the step measured that its writeback reuses.
+    pub(crate) measured: Measured,
+    /// The contact pass's masked inverse masses.
+    pub(crate) masked: Vec<f32>,
+    /// Whether the cloth is at rest, and for how long it has been calm.
+    pub(crate) rest: crate::plugin::events::RestTracker,
+}
+
+/// What the step reads and writes of one cloth.
+#[derive(QueryData)]
+#[query_data(mutable)]
+pub(crate) struct StepQuery {
+    entity: Entity,
+    cloth: &'static Cloth,
+    particles: &'static mut ClothParticles,
+    connections: Ref<'static, ClothConnections>,
+    settings: Option<&'static ClothSettings>,
+    material: Option<&'static crate::plugin::material::ClothMaterial>,
+    forces: &'static ClothForces,
+    scratch: &'static mut ClothScratch,
+    stats: &'static mut ClothStats,
+    collision: Option<&'static ClothCollision>,
+    self_collision: Option<(
+        &'static ClothSelfCollision,
+        &'static mut SelfCollisionScratch,
+    )>,
+}
+
+/// Bevy's compute task pool as the [`Workers`] a step spreads its force
+/// bands over: what the plugin passes to every step, and what a headless
+/// caller of [`step_guarded`] can put in its
+/// [`StepBuffers::workers`](crate::sim::integrate::StepBuffers::workers).
+#[derive(Clone, Copy, Debug)]
+pub struct ComputePool(pub &'static ComputeTaskPool);
+
+impl Workers for ComputePool {
+    fn threads(&self) -> usize {
+        self.0.thread_num()
+    }
+
+    fn run_all<'a>(&self, jobs: Vec<Box<dyn FnOnce() -> bool + Send + 'a>>) -> bool {
+        self.0
+            .scope(|s| {
+                for job in jobs {
+                    s.spawn(async move { job() });
+                }
+            })
+            .into_iter()
+            .all(|ok| ok)
+    }
+}
+
+/// The compute pool, once Bevy has made one, as a step's [`Pool`].
+fn compute_pool(pool: &mut Pool) -> &Pool {
+    if pool.0.is_none()
+        && let Some(compute) = ComputeTaskPool::try_get()
+    {
+        *pool = Pool::new(Arc::new(ComputePool(compute)));
+    }
+    pool
+}
+
+/// [`ClothSystems::Integrate`](crate::plugin::schedule::ClothSystems::Integrate):
+/// steps every cloth over the fixed timestep (never the frame delta),
+/// resolving contacts with nearby colliders and with itself after every
+/// substep when there are any.
+///
+/// A cloth whose settings or arrays are invalid is skipped, with one warning
+/// until it is fixed.
+#[expect(
+    clippy::too_many_arguments,
+    reason = "a Bevy system: each parameter is one resource or query"
+)]
+pub(crate) fn step_cloths(
+    _main: crate::plugin::schedule::MainThread,
+    time: Res<Time<Fixed>>,
+    defaults: Res<ClothDefaults>,
+    scene: Res<ColliderScene>,
+    mut stats: ResMut<ClothCollisionStats>,
+    mut cloths: Query<StepQuery>,
+    ticks: SystemChangeTick,
+    mut pool: Local<Pool>,
+) {
+    let pool = compute_pool(&mut pool);
+    let now = ticks.this_run();
+    let dt = time.timestep().as_secs_f32();
+    let totals: [AtomicU64; 4] = Default::default();
+    cloths.par_iter_mut().for_each(|mut item| {
+        let base = item.settings.map_or(&defaults.0, |own| &own.0);
+        let material = item.material.copied().unwrap_or_default();
+        let settings = &*material.settings(base, item.cloth.spacing());
+        let connections: &ClothConnections = &item.connections;
+        let max_index = item.scratch.measured.max_index(&item.connections, now);
+        item.scratch.measured.strain = None;
+        let checked = material
+            .validate()
+            .and_then(|()| settings.validate())
+            .and_then(|()| check_indices(&item.particles, max_index));
+        if let Err(error) = checked {
+            if !item.scratch.warned_invalid {
+                warn!("cloth {} is not simulated: {error}", item.entity);
+                item.scratch.warned_invalid = true;
+            }
+            return;
+        }
+        item.scratch.warned_invalid = false;
+        let scratch = &mut *item.scratch;
+        if scratch.buffers.workers.0.is_none() {
+            scratch.buffers.workers = pool.clone();
+        }
+        // Colliders the cloth may reach this step: its box grown by the
+        // thickness and twice the distance its fastest particle or gravity
+        // could carry it.
+        let thickness = item
+            .collision
+            .map_or(ClothCollision::default().thickness, |c| c.thickness);
+        scratch.near.clear();
+        if !scene.colliders.is_empty() && thickness.is_finite() && thickness >= 0.0 {
+            let speed = item
+                .particles
+                .velocities
+                .iter()
+                .map(|v| v.length())
+                .fold(0.0, f32::max);
+            let reach = thickness + 2.0 * speed * dt + settings.gravity.length() * dt * dt + 0.01;
+            let (lo, hi) = bounds(&item.particles.positions, reach);
+            scratch.near.extend(scene.overlapping(lo, hi));
+        }
+        let self_collision = item
+            .self_collision
+            .as_mut()
+            .filter(|(s, _)| s.thickness.is_finite() && s.thickness > 0.0)
+            .map(|(s, buffers)| (item.cloth, s.thickness, &mut buffers.0));
+        let helper = settings.implicit.helper_thread;
+        let mut hook =
+            (!scratch.near.is_empty() || self_collision.is_some()).then(|| SceneContacts {
+                scene: &scene,
+                near: &scratch.near,
+                thickness,
+                helper,
+                in_solve: item.collision.is_none_or(|c| c.in_solve),
+                self_collision,
+                masked: &mut scratch.masked,
+                counts: Default::default(),
+            });
+        let started = Instant::now();
+        let step = step_guarded(
+            &mut item.particles,
+            connections,
+            settings,
+            &item.forces.0,
+            &mut scratch.buffers,
+            &mut scratch.guard,
+            dt,
+            hook.as_mut(),
+            helper,
+        );
+        if let Some(hook) = hook {
+            let (against, itself) = hook.counts;
+            for (total, n) in totals.iter().zip([
+                against.tests,
+                against.contacts,
+                itself.tests,
+                itself.contacts,
+            ]) {
+                total.fetch_add(n as u64, Ordering::Relaxed);
+            }
+        }
+        scratch.measured.strain = step.strain.map(|s| (now, s));
+        scratch.pending = step.report;
+        let effective = step;
+        item.stats.substeps = effective.substeps;
+        item.stats.integrator = effective.integrator;
+        item.stats.step_micros = started.elapsed().as_secs_f32() * 1e6;
+        item.stats.solver_iterations = if effective.integrator.is_implicit() {
+            scratch.buffers.implicit.last_iterations
+        } else {
+            0
+        };
+    });
+    let [ct, cc, st, sc] = totals.map(AtomicU64::into_inner);
+    if ct + st > 0 {
+        stats.collider_tests += ct;
+        stats.collider_contacts += cc;
+        stats.self_tests += st;
+        stats.self_contacts += sc;
+    }
+    if cloths.iter().any(|c| c.self_collision.is_some()) {
+        stats.self_passes += 1;
+    }
+}
+
+/// What the writeback reads and writes of one cloth.
+type WritebackQuery = (
+    Entity,
+    Ref<'static, ClothParticles>,
+    Ref<'static, ClothConnections>,
+    &'static mut ClothForces,
+    &'static mut ClothStats,
+    &'static mut ClothScratch,
+    Option<&'static ClothGrabs>,
+);
+
+/// [`ClothSystems::Writeback`](crate::plugin::schedule::ClothSystems::Writeback):
+/// clears the external forces, measures [`ClothStats`] (with the strain the
+/// step's guard measured, if the particles have not changed since:
+/// [`Measured`]), reports the step's divergences ([`report_divergence`]) and
+/// triggers [`ClothAtRest`] and [`ClothWoke`], in one system. A cloth
+/// whose grabs move a particle is not at rest, whatever its free particles
+/// do.
+pub(crate) fn finish_step(
+    _main: crate::plugin::schedule::MainThread,
+    mut commands: Commands,
+    mut cloths: Query<WritebackQuery>,
+    mut out: MessageWriter<ClothDiverged>,
+    ticks: SystemChangeTick,
+) {
+    let now = ticks.this_run();
+    for (entity, particles, connections, mut forces, mut stats, mut scratch, grabs) in &mut cloths {
+        report_divergence(entity, &mut scratch, &mut out, &mut commands);
+        if forces.0.iter().any(|f| *f != Vec3::ZERO) {
+            forces.0.fill(Vec3::ZERO);
+        }
+        stats.steps += 1;
+        let measured = &mut scratch.measured;
+        if check_indices(&particles, measured.max_index(&connections, now)).is_ok() {
+            match measured.strain(&particles, now) {
+                Some(strain) => stats.measure_with(&particles, strain),
+                None => stats.measure(&particles, &connections),
+            }
+        } else {
+            stats.finite = particles.is_finite();
+            stats.max_speed = f32::NAN;
+        }
+        let grabbed = grabs.map_or(0.0, |g| {
+            g.grabs()
+                .iter()
+                .filter_map(|g| particles.velocities.get(g.particle as usize))
+                .fold(0.0f32, |m, v| m.max(v.length()))
+        });
+        // NaN (a non-finite free particle) stays NaN.
+        let speed = if stats.max_speed.is_nan() {
+            f32::NAN
+        } else {
+            stats.max_speed.max(grabbed)
+        };
+        match scratch.rest.step(speed) {
+            Some(RestChange::CameToRest) => commands.trigger(ClothAtRest { entity }),
+            Some(RestChange::Woke) => commands.trigger(ClothWoke { entity }),
+            None => {}
+        }
+        stats.resting = scratch.rest.resting();
+    }
+}
+
+/// Reports the divergence of this step, if any, warning once per cloth.
+fn report_divergence(
+    entity: Entity,
+    scratch: &mut ClothScratch,
+    out: &mut MessageWriter<ClothDiverged>,
+    commands: &mut Commands,
+) {
+    let Some((reason, substeps, integrator, recovered)) = scratch.pending.take() else {
+        return;
+    };
+    if !scratch.warned_diverged {
+        warn!(
+            "cloth {entity} diverged ({reason:?}); now {substeps} substeps of {integrator:?}{}",
+            if recovered {
+                ""
+            } else {
+                ", not recovered: speeds clamped or held for this step"
+            }
+        );
+        scratch.warned_diverged = true;
+    }
+    let diverged = ClothDiverged {
+        cloth: entity,
+        reason,
+        substeps,
+        integrator,
+        recovered,
+    };
+    commands.trigger(diverged.clone());
+    out.write(diverged);
+}

@@ -1,0 +1,64 @@
+//! [`ClothWind`]: the air around every cloth, as a resource, and the system
+//! that turns it into forces per face ([`crate::sim::wind`] holds the
+//! aerodynamics). With no resource, or zero wind, nothing runs.
+
+use bevy::math::Vec3;
+use bevy::prelude::{
+    Deref, DerefMut, Local, Query, Reflect, ReflectDefault, ReflectResource, Res, Resource, Time,
+};
+use bevy::time::Fixed;
+
+use crate::plugin::components::{Cloth, ClothForces, ClothParticles};
+use crate::sim::wind::{Wind, step_wind_forces};
+
+/// The air around every cloth: a [`Wind`], which it dereferences to.
+///
+/// ```
+/// # use bevy::prelude::*;
+/// # use bevy_cloth::prelude::*;
+/// /// A steady 4 m/s breeze along +z.
+/// fn breeze(mut commands: Commands) {
+///     commands.insert_resource(ClothWind(Wind { velocity: Vec3::Z * 4.0, ..default() }));
+/// }
+/// ```
+#[derive(Resource, Clone, Copy, Debug, Default, PartialEq, Reflect, Deref, DerefMut)]
+#[reflect(Resource, Default)]
+pub struct ClothWind(pub Wind);
+
+/// Whether there is wind to apply (a run condition).
+pub(crate) fn wind_blows(wind: Option<Res<ClothWind>>) -> bool {
+    wind.is_some_and(|w| w.blows())
+}
+
+/// [`ClothSystems::Forces`](crate::ClothSystems::Forces): wind on every cloth.
+pub(crate) fn apply_wind(
+    _main: crate::plugin::schedule::MainThread,
+    time: Res<Time<Fixed>>,
+    wind: Res<ClothWind>,
+    mut scratch: Local<(Vec<Vec3>, Vec<f32>)>,
+    mut cloths: Query<(&Cloth, &ClothParticles, &mut ClothForces)>,
+) {
+    let air = wind.at(time.elapsed_secs());
+    let dt = time.timestep().as_secs_f32();
+    let (wind_f, rates) = &mut *scratch;
+    for (cloth, particles, mut forces) in &mut cloths {
+        let n = particles.len();
+        if cloth.len() != n || particles.inverse_masses.len() != n {
+            continue;
+        }
+        if forces.0.len() != n {
+            forces.0.clear();
+            forces.0.resize(n, Vec3::ZERO);
+        }
+        wind_f.resize(n, Vec3::ZERO);
+        let state = (
+            &particles.positions[..],
+            &particles.velocities[..],
+            &particles.inverse_masses[..],
+        );
+        step_wind_forces(cloth, &wind, air, state, dt, wind_f, rates);
+        for (f, w) in forces.0.iter_mut().zip(wind_f.iter()) {
+            *f += *w;
+        }
+    }
+}

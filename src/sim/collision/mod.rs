@@ -1,0 +1,20 @@
+//! The narrow phase: particles against moving shapes and triangle meshes
+//! over a step, the contacts the implicit solve holds, and the cloth
+//! against itself. Plain functions over slices of positions (m) and
+//! velocities (m/s).
+//!
+//! It may import the rest of [`sim`](crate::sim) and [`error`](crate::error);
+//! the components that place colliders in a scene live in
+//! [`plugin::collision`](crate::plugin::collision).
+
+pub mod contact;
+pub mod narrow;
+pub mod predict;
+pub mod self_collision;
+pub mod shapes;
+pub mod trimesh;
+
+pub use contact::Counts;
+pub use self_collision::SelfCollisionBuffers;
+pub use shapes::Shape;
+pub use trimesh::TriMesh;

@@ -1,0 +1,220 @@
+//! The contacts an implicit step is to hold
+//! ([`integrate::implicit::contacts`](crate::sim::integrate::implicit::contacts)):
+//! every free particle that touches a collider at the start of the step,
+//! or will within it if it keeps its velocity relative to the surface.
+
+use bevy::math::{Affine3A, Vec3};
+
+use super::contact::{Geometry, MovingCollider};
+use super::shapes::sweep;
+use super::trimesh::{TriMesh, closest_point_on_triangle, segment_triangle};
+use crate::sim::integrate::implicit::{Hold, SolveContact};
+
+/// How far outside the contact thickness (m) a particle still counts as
+/// touching: a sheet at rest sits at the thickness, give or take rounding.
+const TOUCH: f32 = 1e-4;
+
+/// Adds to `out` the contacts with `collider` (its poses at the start and
+/// end of a step of `dt` s) of the free particles at `x` (m) moving at `v`
+/// (m/s), for a contact thickness of `thickness` m. Several colliders may
+/// list the same particle; [`keep_nearest`] keeps the nearest.
+pub fn predict_contacts(
+    collider: &MovingCollider,
+    (x, v, inverse_masses): (&[Vec3], &[Vec3], &[f32]),
+    thickness: f32,
+    dt: f32,
+    out: &mut Vec<SolveContact>,
+) {
+    let to_local = Affine3A::from(collider.start.inverse());
+    let (start, end) = (Affine3A::from(collider.start), Affine3A::from(collider.end));
+    for (p, ((&xp, &vp), &w)) in x.iter().zip(v).zip(inverse_masses).enumerate() {
+        if w == 0.0 {
+            continue;
+        }
+        let local = to_local.transform_point3(xp);
+        let reach = thickness + TOUCH + vp.length() * dt;
+        let Some((distance, normal)) = (match collider.geometry {
+            Geometry::Shape(ref shape) => Some(shape.distance(local)),
+            Geometry::Mesh(mesh) => mesh_distance(mesh, local, reach),
+        }) else {
+            continue;
+        };
+        let gap = distance - thickness;
+        if gap > reach {
+            continue;
+        }
+        let normal = start.transform_vector3(normal).normalize_or_zero();
+        if normal == Vec3::ZERO {
+            continue;
+        }
+        let velocity = (end.transform_point3(local) - xp) / dt;
+        let approach = gap + dt * (vp - velocity).dot(normal);
+        if gap <= TOUCH || approach < 0.0 {
+            out.push(SolveContact {
+                particle: p as u32,
+                normal,
+                gap,
+                velocity,
+                friction: collider.friction,
+            });
+        }
+    }
+}
+
+/// Distance (m) from local point `p` to the nearest triangle of `mesh`
+/// within `reach` m, and the outward normal there (towards `p`), or `None`.
+fn mesh_distance(mesh: &TriMesh, p: Vec3, reach: f32) -> Option<(f32, Vec3)> {
+    let pad = Vec3::splat(reach);
+    let mut nearest: Option<(f32, usize, Vec3)> = None;
+    mesh.query(p - pad, p + pad, |t| {
+        let c = closest_point_on_triangle(p, mesh.triangles[t]);
+        let d = p.distance(c);
+        if d <= reach && nearest.is_none_or(|(best, _, _)| d < best) {
+            nearest = Some((d, t, c));
+        }
+    });
+    let (d, t, c) = nearest?;
+    let face = mesh.normals[t];
+    let normal = if d > 1e-9 {
+        (p - c) / d
+    } else if (p - mesh.triangles[t][0]).dot(face) < 0.0 {
+        -face
+    } else {
+        face
+    };
+    Some((d, normal))
+}
+
+/// Pushes the particles the solve held (`held[p]` not free) that crossed
+/// into `collider` during the step back out to the contact thickness, and
+/// takes out their velocity into it relative to the surface. The solve
+/// holds a particle on the plane its contact had at the start of the step,
+/// with a spring that yields to very large forces (a violent yank over an
+/// edge), and a fast collider can carry its surface past that plane; this
+/// catches both, along the particle's path (`start` → `x`, m), so it cannot
+/// pass through a thin collider. Their friction is the solve's: nothing
+/// else changes. Returns how many were pushed.
+pub fn push_out_held(
+    collider: &MovingCollider,
+    held: &[Hold],
+    (start, x, v): (&[Vec3], &mut [Vec3], &mut [Vec3]),
+    thickness: f32,
+    dt: f32,
+) -> u32 {
+    let (to0, to1) = (
+        Affine3A::from(collider.start.inverse()),
+        Affine3A::from(collider.end.inverse()),
+    );
+    let (start_pose, end_pose) = (Affine3A::from(collider.start), Affine3A::from(collider.end));
+    let mut pushed = 0;
+    for (p, &h) in held.iter().enumerate() {
+        if h == Hold::Free {
+            continue;
+        }
+        let (p0, p1) = (to0.transform_point3(start[p]), to1.transform_point3(x[p]));
+        // The first point of the path inside the collider itself.
+        let entry = match collider.geometry {
+            Geometry::Shape(ref shape) => sweep(shape, p0, p1, 0.0).map(|t| {
+                // On the surface (a path that starts inside starts there).
+                let q = p0.lerp(p1, t);
+                let (d, n) = shape.distance(q);
+                (q - d.min(0.0) * n, n)
+            }),
+            Geometry::Mesh(mesh) => mesh_crossing(mesh, p0, p1),
+        };
+        let Some((point, normal)) = entry else {
+            continue;
+        };
+        let n = end_pose.transform_vector3(normal).normalize_or_zero();
+        x[p] = end_pose.transform_point3(point) + thickness * n;
+        let surface = (end_pose.transform_point3(point) - start_pose.transform_point3(point)) / dt;
+        let into = (v[p] - surface).dot(n);
+        if into < 0.0 {
+            v[p] -= into * n;
+        }
+        pushed += 1;
+    }
+    pushed
+}
+
+/// Where the segment `p0 → p1` (local, m) first crosses a triangle of
+/// `mesh`, and the normal there facing `p0`'s side.
+fn mesh_crossing(mesh: &TriMesh, p0: Vec3, p1: Vec3) -> Option<(Vec3, Vec3)> {
+    let mut first: Option<(f32, usize)> = None;
+    mesh.query(p0.min(p1), p0.max(p1), |t| {
+        if let Some(s) = segment_triangle(p0, p1, mesh.triangles[t])
+            && first.is_none_or(|(best, _)| s < best)
+        {
+            first = Some((s, t));
+        }
+    });
+    let (s, t) = first?;
+    let face = mesh.normals[t];
+    let normal = if (p0 - mesh.triangles[t][0]).dot(face) < 0.0 {
+        -face
+    } else {
+        face
+    };
+    Some((p0.lerp(p1, s), normal))
+}
+
+/// Keeps, for each particle listed more than once, its contact with the
+/// smallest gap, and sorts the list by particle.
+pub fn keep_nearest(contacts: &mut Vec<SolveContact>) {
+    contacts.sort_unstable_by(|a, b| a.particle.cmp(&b.particle).then(a.gap.total_cmp(&b.gap)));
+    contacts.dedup_by_key(|c| c.particle);
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sim::collision::shapes::Shape;
+    use bevy::math::Isometry3d;
+
+    fn floor(speed: f32) -> MovingCollider<'static> {
+        MovingCollider {
+            geometry: Geometry::Shape(Shape::Plane),
+            start: Isometry3d::IDENTITY,
+            end: Isometry3d::from_translation(Vec3::new(speed * 0.1, 0.0, 0.0)),
+            friction: 0.5,
+            restitution: 0.0,
+        }
+    }
+
+    #[test]
+    fn touching_and_arriving_particles_are_listed_and_others_not() {
+        let x = [
+            Vec3::new(0.0, 0.01, 0.0),  // resting at the thickness
+            Vec3::new(0.0, 0.05, 0.0),  // falling, reaches it within the step
+            Vec3::new(0.0, 0.05, 0.0),  // rising
+            Vec3::new(0.0, 0.5, 0.0),   // far
+            Vec3::new(0.0, 0.005, 0.0), // inside the thickness, pinned
+        ];
+        let v = [Vec3::ZERO, -Vec3::Y, Vec3::Y, -Vec3::Y, Vec3::ZERO];
+        let w = [1.0, 1.0, 1.0, 1.0, 0.0];
+        let mut out = Vec::new();
+        predict_contacts(&floor(2.0), (&x, &v, &w), 0.01, 0.1, &mut out);
+        let listed: Vec<u32> = out.iter().map(|c| c.particle).collect();
+        assert_eq!(listed, [0, 1]);
+        assert!(out[0].gap.abs() < 1e-6 && (out[1].gap - 0.04).abs() < 1e-6);
+        assert_eq!(out[0].normal, Vec3::Y);
+        // The floor slides along x at 2 m/s: so does its surface.
+        assert!((out[0].velocity - Vec3::X * 2.0).length() < 1e-4);
+        assert_eq!(out[0].friction, 0.5);
+    }
+
+    #[test]
+    fn the_nearest_of_two_contacts_is_kept() {
+        let c = |particle, gap| SolveContact {
+            particle,
+            normal: Vec3::Y,
+            gap,
+            velocity: Vec3::ZERO,
+            friction: 0.0,
+        };
+        let mut list = vec![c(3, 0.0), c(1, 0.2), c(3, -0.1), c(1, 0.1)];
+        keep_nearest(&mut list);
+        let kept: Vec<(u32, f32)> = list.iter().map(|c| (c.particle, c.gap)).collect();
+        assert_eq!(kept, [(1, 0.1), (3, -0.1)]);
+    }
+}

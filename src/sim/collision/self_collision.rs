@@ -1,0 +1,165 @@
+//! Opt-in self-collision: vertex–triangle proximity within one cloth, with a
+//! spatial hash over its triangles (MODEL.md §8.3). Off unless a cloth has
+//! [`ClothSelfCollision`](super::ClothSelfCollision), as the paper leaves it
+//! out for speed.
+
+use bevy::math::Vec3;
+
+use super::contact::Counts;
+use super::trimesh::closest_point_on_triangle;
+use crate::sim::grid::Grid;
+
+/// Reusable buffers of the spatial hash (no allocation once warm).
+#[derive(Clone, Debug, Default)]
+pub struct SelfCollisionBuffers {
+    /// `(cell key, triangle)` pairs sorted by key.
+    entries: Vec<(u64, u32)>,
+}
+
+fn cell_of(p: Vec3, inv_cell: f32) -> [i32; 3] {
+    let c = (p * inv_cell).floor();
+    [c.x as i32, c.y as i32, c.z as i32]
+}
+
+fn key([x, y, z]: [i32; 3]) -> u64 {
+    (x as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15)
+        ^ (y as u64).wrapping_mul(0xC2B2_AE3D_27D4_EB4F)
+        ^ (z as u64).wrapping_mul(0x1656_67B1_9E37_79F9)
+}
+
+/// Barycentric weights of point `c` on triangle `[a, b, d]`.
+fn barycentric(c: Vec3, [a, b, d]: [Vec3; 3]) -> [f32; 3] {
+    let (v0, v1, v2) = (b - a, d - a, c - a);
+    let (d00, d01, d11) = (v0.dot(v0), v0.dot(v1), v1.dot(v1));
+    let (d20, d21) = (v2.dot(v0), v2.dot(v1));
+    let denom = d00 * d11 - d01 * d01;
+    if denom.abs() < 1e-20 {
+        return [1.0 / 3.0; 3];
+    }
+    let v = (d11 * d20 - d01 * d21) / denom;
+    let w = (d00 * d21 - d01 * d20) / denom;
+    [1.0 - v - w, v, w]
+}
+
+/// Keeps every particle of `cloth` at least `thickness` m from every
+/// triangle it is not a corner of. Corrections are split by inverse mass
+/// between the particle and the triangle's corners (momentum is conserved),
+/// and their approaching normal velocity is removed. `x` in m, `v` in m/s.
+pub fn self_collide(
+    cloth: &Grid,
+    x: &mut [Vec3],
+    v: &mut [Vec3],
+    inverse_masses: &[f32],
+    thickness: f32,
+    buffers: &mut SelfCollisionBuffers,
+) -> Counts {
+    let mut counts = Counts::default();
+    let spacing =
+        (cloth.size.x / (cloth.cols - 1) as f32).max(cloth.size.y / (cloth.rows - 1) as f32);
+    let cell = spacing.max(2.0 * thickness);
+    let inv_cell = 1.0 / cell;
+    let entries = &mut buffers.entries;
+    entries.clear();
+    for (t, tri) in cloth.triangle_iter().enumerate() {
+        let [a, b, c] = tri.map(|p| x[p as usize]);
+        let lo = cell_of(a.min(b).min(c) - thickness, inv_cell);
+        let hi = cell_of(a.max(b).max(c) + thickness, inv_cell);
+        // A triangle stretched over many cells (an exploding cloth) is
+        // clamped to a 4×4×4 block rather than flooding the hash.
+        for i in lo[0]..=hi[0].min(lo[0] + 3) {
+            for j in lo[1]..=hi[1].min(lo[1] + 3) {
+                for k in lo[2]..=hi[2].min(lo[2] + 3) {
+                    entries.push((key([i, j, k]), t as u32));
+                }
+            }
+        }
+    }
+    entries.sort_unstable();
+    for p in 0..x.len() {
+        let k = key(cell_of(x[p], inv_cell));
+        let from = entries.partition_point(|e| e.0 < k);
+        let mut e = from;
+        while e < entries.len() && entries[e].0 == k {
+            let tri = cloth.triangle(entries[e].1);
+            e += 1;
+            if tri.contains(&(p as u32)) {
+                continue;
+            }
+            counts.tests += 1;
+            let corners = tri.map(|q| x[q as usize]);
+            let c = closest_point_on_triangle(x[p], corners);
+            let off = x[p] - c;
+            let dist = off.length();
+            if dist >= thickness {
+                continue;
+            }
+            let n = if dist > 1e-9 {
+                off / dist
+            } else {
+                (corners[1] - corners[0])
+                    .cross(corners[2] - corners[0])
+                    .normalize_or(Vec3::Y)
+            };
+            let bary = barycentric(c, corners);
+            let wp = inverse_masses[p];
+            let wt: f32 = (0..3)
+                .map(|i| bary[i] * bary[i] * inverse_masses[tri[i] as usize])
+                .sum();
+            if wp + wt == 0.0 {
+                continue;
+            }
+            counts.contacts += 1;
+            // Position: close the gap to the thickness.
+            let s = (thickness - dist) / (wp + wt);
+            x[p] += wp * s * n;
+            for i in 0..3 {
+                let q = tri[i] as usize;
+                x[q] -= bary[i] * inverse_masses[q] * s * n;
+            }
+            // Velocity: remove the approaching part of the relative motion.
+            let vt: Vec3 = (0..3).map(|i| bary[i] * v[tri[i] as usize]).sum();
+            let vn = (v[p] - vt).dot(n);
+            if vn < 0.0 {
+                let j = -vn / (wp + wt);
+                v[p] += wp * j * n;
+                for i in 0..3 {
+                    let q = tri[i] as usize;
+                    v[q] -= bary[i] * inverse_masses[q] * j * n;
+                }
+            }
+        }
+    }
+    counts
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::plugin::builder::ClothBuilder;
+
+    #[test]
+    fn a_particle_inside_the_thickness_is_pushed_out_with_momentum_conserved() {
+        let cloth = ClothBuilder::new(3, 3).size(2.0, 2.0).build().unwrap();
+        let mut x = cloth.particles.positions.clone();
+        // Bring the corner particle 8 down onto triangle (0, 3, 4) from above.
+        x[8] = Vec3::new(-0.6, 0.004, -0.4);
+        let mut v = vec![Vec3::ZERO; 9];
+        v[8] = Vec3::new(0.0, -1.0, 0.0);
+        let w = vec![1.0; 9];
+        let momentum = |v: &[Vec3]| v.iter().sum::<Vec3>();
+        let centre = |x: &[Vec3]| x.iter().sum::<Vec3>();
+        let (p0, c0) = (momentum(&v), centre(&x));
+        let mut buffers = SelfCollisionBuffers::default();
+        let counts = self_collide(&cloth.cloth, &mut x, &mut v, &w, 0.01, &mut buffers);
+        assert!(counts.contacts >= 1, "{counts:?}");
+        assert!(x[8].y >= 0.005, "{}", x[8]);
+        assert!(v[8].y > -1.0);
+        assert!((momentum(&v) - p0).length() < 1e-5);
+        assert!((centre(&x) - c0).length() < 1e-5);
+        // Far apart: nothing happens.
+        let mut x = cloth.particles.positions.clone();
+        let before = x.clone();
+        let counts = self_collide(&cloth.cloth, &mut x, &mut v, &w, 0.01, &mut buffers);
+        assert_eq!((counts.contacts, x), (0, before));
+    }
+}

@@ -1,0 +1,654 @@
+//! Implicit integrators: linearised backward Euler (Baraff–Witkin, MODEL.md
+//! §6.5) and Choi & Ko's second-order BDF (§6.6), solved matrix-free by a
+//! filtered, preconditioned conjugate gradient: block-Jacobi, plus a
+//! coarse-grid correction for grid cloths (`coarse.rs`,
+//! [`ImplicitParams::coarse_grid`](crate::sim::settings::ImplicitParams::coarse_grid)).
+//! The operator is stored by grid offset, so its product runs as SIMD loops
+//! (`operator.rs`). From 2048 particles the iterations are shared with a
+//! helper thread, each running every pass on half the particles
+//! (`halves.rs`, `crate::sim::team`;
+//! [`ImplicitParams::helper_thread`](crate::sim::settings::ImplicitParams::helper_thread)),
+//! to the same bits as on one thread.
+//!
+//! Both solve `A Δv = b` with `A = M(1 + αc) − α D − β K`, where `K = ∂F/∂x`
+//! and `D = ∂F/∂v` come as per-connection blocks
+//! ([`jacobian`](crate::sim::model::jacobian)), formed for the grid families a
+//! stream at a time together with the forces and the product `K w` the
+//! right-hand side needs (`assemble_streamed`), and `c` is the absolute
+//! damping (`∂(−cMv)/∂v = −cM`):
+//!
+//! | scheme | α | β | b |
+//! |---|---|---|---|
+//! | backward Euler | h | h² | `h(F₀ + hKv₀)` |
+//! | BDF2 | ⅔h | 4⁄9h² | `⅓M(vₙ − vₙ₋₁) + ⅔h[Fₙ + K(⅓(xₙ − xₙ₋₁) + ⅔h vₙ)]` |
+//!
+//! **Pins** are handled by the filter of BW §5: a pinned particle's rows
+//! are zeroed, so its `Δv` is exactly 0 and it keeps the velocity it was
+//! given (0, or an anchor's). No step allocates once the buffers are warm.
+
+use std::time::Instant;
+
+use bevy::math::Vec3;
+
+use coarse::Coarse;
+use halves::Halves;
+
+pub use contacts::{ContactBuffers, Hold, SolveContact};
+
+use crate::sim::team;
+use operator::{Operator, Soa, dot};
+
+use crate::sim::model::Dynamics;
+use crate::sim::model::jacobian::{Block, add_k_times, assemble_streamed};
+use crate::sim::model::streams::ForceStreams;
+use crate::sim::settings::{ImplicitParams, SlackStiffness};
+
+/// Preallocated state of the implicit integrators for one cloth.
+#[derive(Clone, Debug, Default)]
+pub struct ImplicitBuffers {
+    /// Jacobian blocks of the current step's links outside the streams
+    /// (crease springs, links of an unusual step).
+    pub blocks: Vec<Block>,
+    /// The grid families by index step, whose forces and blocks are formed
+    /// a stream at a time.
+    streams: ForceStreams,
+    /// The operator `A` of the current step, by grid offset.
+    op: Operator,
+    /// The coarse-grid correction of the preconditioner.
+    coarse: Coarse,
+    /// Whether `coarse` holds this step's factored operator.
+    coarse_active: bool,
+    force: Vec<Vec3>,
+    // The solver's vectors, component by component (see `operator`).
+    rhs: Soa,
+    dv: Soa,
+    r: Soa,
+    d: Soa,
+    q: Soa,
+    y: Soa,
+    tmp: Vec<Vec3>,
+    w_term: Vec<Vec3>,
+    prev_x: Vec<Vec3>,
+    prev_v: Vec<Vec3>,
+    expected_x: Vec<Vec3>,
+    /// Step length of the stored BDF2 history, if there is one.
+    history: Option<f32>,
+    /// The last step's implicit equation, `x₁ = a + γv₁` and
+    /// `M(v₁ − b) = γF(x₁, v₁)`: `b` (m/s) per particle and `γ` (s), for
+    /// [`newton_correction`].
+    target_v: Vec<Vec3>,
+    gamma: f32,
+    /// The contacts the solve holds ([`contacts`]).
+    pub contacts: ContactBuffers,
+    /// This step's right-hand-side terms of sliding contacts: particle and
+    /// momentum (N·s).
+    contact_rhs: Vec<(usize, Vec3)>,
+    /// Whether `dv` holds the last step's solution, the next solve's
+    /// starting guess (a warm start).
+    warm: bool,
+    /// Conjugate-gradient iterations of the last solve.
+    pub last_iterations: u32,
+    /// `√(rᵀP⁻¹r / bᵀP⁻¹b)` at the end of the last solve (dimensionless).
+    pub last_residual: f32,
+    /// Threads the last solve's iterations ran on: 2 when it shared them
+    /// with the helper thread ([`ImplicitParams::helper_thread`]).
+    pub last_threads: u32,
+    /// Whether sharing them pays, by the last solves' times.
+    choice: halves::Choice,
+    /// Whether this step's solve is to share them, as `choice` had it.
+    share: bool,
+}
+
+impl ImplicitBuffers {
+    fn resize(&mut self, n: usize) {
+        if self.force.len() != n {
+            self.history = None;
+            self.warm = false;
+        }
+        for buf in [
+            &mut self.rhs,
+            &mut self.dv,
+            &mut self.r,
+            &mut self.d,
+            &mut self.q,
+            &mut self.y,
+        ] {
+            buf.resize(n);
+        }
+        for buf in [
+            &mut self.force,
+            &mut self.tmp,
+            &mut self.w_term,
+            &mut self.prev_x,
+            &mut self.prev_v,
+            &mut self.expected_x,
+            &mut self.target_v,
+        ] {
+            buf.resize(n, Vec3::ZERO);
+        }
+    }
+
+    /// Forgets the BDF2 history, so the next BDF2 step is backward Euler,
+    /// and the contacts' holds.
+    pub fn reset_history(&mut self) {
+        self.history = None;
+        self.warm = false;
+        self.contacts.clear();
+    }
+}
+
+/// `out = K w`: `(K w)_a = Σ H (w_b − w_a)`, `(K w)_b = Σ H (w_a − w_b)`.
+pub fn k_times(blocks: &[Block], w: &[Vec3], out: &mut [Vec3]) {
+    out.fill(Vec3::ZERO);
+    add_k_times(blocks, w, out);
+}
+
+/// Solves `A Δv = b` (b already filtered) into `buffers.dv` by PCG with the
+/// preconditioner `P⁻¹ = B⁻¹ (+ the coarse correction)`. It starts from the
+/// last step's `Δv` when there is one and it is closer than `Δv = 0` (a
+/// warm start), and stops once `rᵀP⁻¹r ≤ ε² bᵀP⁻¹b` either way.
+/// Returns (iterations, relative residual).
+fn pcg(params: &ImplicitParams, buffers: &mut ImplicitBuffers) -> (u32, f32) {
+    // Compiled for the CPU's vectors, so that its vector updates, the
+    // preconditioner and the coarse correction run as wide as they can.
+    pcg_at(crate::simd::level(), params, buffers)
+}
+
+crate::simd::multiversion! {
+    /// [`pcg_inner`] compiled for a SIMD level.
+    fn pcg_at(params: &ImplicitParams, buffers: &mut ImplicitBuffers) -> (u32, f32) = pcg_inner;
+}
+
+/// The body of [`pcg`], inlined into each of its builds.
+#[inline(always)]
+fn pcg_inner(params: &ImplicitParams, buffers: &mut ImplicitBuffers) -> (u32, f32) {
+    let ImplicitBuffers {
+        op,
+        rhs,
+        dv,
+        r,
+        d,
+        q,
+        y,
+        warm,
+        coarse,
+        coarse_active,
+        last_threads: threads,
+        choice,
+        share,
+        ..
+    } = buffers;
+    *threads = 1;
+    let mut coarse = coarse_active.then_some(coarse);
+    precondition(op, coarse.as_deref_mut(), rhs, y);
+    let delta0 = dot(rhs, y);
+    if !(delta0 > 0.0 && delta0.is_finite()) {
+        dv.zero();
+        *warm = false;
+        return (0, 0.0);
+    }
+    let tried_warm = *warm;
+    let mut delta = f64::NAN;
+    if tried_warm {
+        dv.filter(&op.free);
+        op.apply(dv, q);
+        for ((r, b), q) in r.0.iter_mut().zip(&rhs.0).zip(&q.0) {
+            for ((ri, bi), qi) in r.iter_mut().zip(b).zip(q) {
+                *ri = bi - qi;
+            }
+        }
+        precondition(op, coarse.as_deref_mut(), r, y);
+        delta = dot(r, y);
+    }
+    if delta.is_nan() || delta >= delta0 {
+        // Cold start: Δv = 0, r = b (and y = P⁻¹b, unless the warm try overwrote it).
+        dv.zero();
+        r.copy_from(rhs);
+        if tried_warm {
+            precondition(op, coarse.as_deref_mut(), r, y);
+        }
+        delta = delta0;
+    }
+    *warm = true;
+    // Stop at the relative tolerance, or once the mass-weighted RMS error
+    // of Δv is below the velocity tolerance: `rᵀP⁻¹r ≈ Σ m δv²` (P is
+    // mostly the mass), and a cloth at rest has a right-hand side near 0.
+    let floor = (params.velocity_tolerance as f64).powi(2) * op.total_mass();
+    let tol2 = (params.tolerance as f64).powi(2).max(floor / delta0);
+    let halves = Halves::plan(op, coarse.as_deref());
+    let may_share = halves.is_some() && params.helper_thread;
+    let started = Instant::now();
+    if let Some(halves) = halves
+        && may_share
+        && *share
+        && let Some(claim) = team::claim()
+    {
+        let limits = (delta, delta0, tol2, params.max_iterations);
+        let (iterations, delta) =
+            halves::iterate(&claim, halves, op, coarse, [dv, r, y, q], limits);
+        *threads = 2;
+        choice.record(2, started.elapsed(), iterations);
+        return (iterations, (delta / delta0).max(0.0).sqrt() as f32);
+    }
+    let dot = |a: &Soa, b: &Soa| halves.map_or_else(|| dot(a, b), |h| h.dot(a, b));
+    d.copy_from(y);
+    let mut iterations = 0;
+    while iterations < params.max_iterations && delta > tol2 * delta0 {
+        op.apply(d, q);
+        let dq = dot(d, q);
+        if !(dq > 0.0 && dq.is_finite()) {
+            break; // not positive definite along d: stop with what we have
+        }
+        let alpha = (delta / dq) as f32;
+        for k in 0..3 {
+            for ((dvi, ri), (&di, &qi)) in dv.0[k]
+                .iter_mut()
+                .zip(r.0[k].iter_mut())
+                .zip(d.0[k].iter().zip(&q.0[k]))
+            {
+                *dvi += alpha * di;
+                *ri -= alpha * qi;
+            }
+        }
+        precondition(op, coarse.as_deref_mut(), r, y);
+        let next = dot(r, y);
+        let beta = (next / delta) as f32;
+        for (d, y) in d.0.iter_mut().zip(&y.0) {
+            for (di, &yi) in d.iter_mut().zip(y) {
+                *di = yi + beta * *di;
+            }
+        }
+        delta = next;
+        iterations += 1;
+    }
+    if may_share {
+        choice.record(1, started.elapsed(), iterations);
+    }
+    (iterations, (delta / delta0).max(0.0).sqrt() as f32)
+}
+
+/// `y = P⁻¹ r`: block-Jacobi, plus the coarse correction when there is one.
+/// A function rather than a closure, so that it is inlined into (and
+/// compiled for the SIMD width of) each build of [`pcg`]: as a closure it
+/// ran as SSE and took 14 % of a 64×64 frame.
+#[inline(always)]
+fn precondition(op: &Operator, coarse: Option<&mut Coarse>, r: &Soa, y: &mut Soa) {
+    op.precondition(r, y);
+    if let Some(c) = coarse {
+        c.add(r, y, &op.free);
+    }
+}
+
+/// Assembles forces and blocks at `(x, v)`, adds gravity, damping and the
+/// external forces to `buffers.force` (N), writes `K w` (N) into
+/// `buffers.tmp` (`w` in m), and builds the operator
+/// `A = M(1 + αc) − αD − βK` (and the coarse one when it is wanted).
+fn linearise(
+    dynamics: &Dynamics,
+    (x, v, w): (&[Vec3], &[Vec3], &[Vec3]),
+    alpha: f32,
+    beta: f32,
+    buffers: &mut ImplicitBuffers,
+) {
+    assemble(dynamics, (x, v, w), alpha, beta, buffers);
+    buffers.op.extra.clear();
+    build(dynamics, dynamics.inverse_masses, alpha, beta, buffers);
+}
+
+/// The first half of [`linearise`]: forces, `K w` and the blocks.
+fn assemble(
+    dynamics: &Dynamics,
+    (x, v, w): (&[Vec3], &[Vec3], &[Vec3]),
+    alpha: f32,
+    beta: f32,
+    buffers: &mut ImplicitBuffers,
+) {
+    buffers.share = x.len() >= halves::MIN_PARTICLES
+        && dynamics.settings.implicit.helper_thread
+        && buffers.choice.share();
+    if buffers.share {
+        // The solve is to share its passes with the helper thread: have it
+        // running by the time the set-up is done.
+        team::wake();
+    }
+    let s = dynamics.settings;
+    let keep_slack = match s.implicit.slack_stiffness {
+        SlackStiffness::Keep => true,
+        SlackStiffness::Drop => false,
+        SlackStiffness::Auto => {
+            // β = h² (BE) or 4⁄9h² (BDF2): resolved when h²·k/m_min < 1.
+            let lightest = dynamics.inverse_masses.iter().copied().fold(0.0, f32::max);
+            let k = s.choi_ko.stiffness.max(s.choi_ko.shear_stiffness);
+            beta * k * lightest > 1.0
+        }
+    };
+    assemble_streamed(
+        s,
+        dynamics.connections,
+        (keep_slack, alpha, beta),
+        x,
+        v,
+        w,
+        (&mut buffers.force, &mut buffers.tmp),
+        &mut buffers.blocks,
+        &mut buffers.streams,
+    );
+    let external = (dynamics.external.len() == x.len()).then_some(dynamics.external);
+    for i in 0..x.len() {
+        let w = dynamics.inverse_masses[i];
+        if w == 0.0 {
+            buffers.force[i] = Vec3::ZERO;
+            continue;
+        }
+        let m = 1.0 / w;
+        buffers.force[i] +=
+            m * (s.gravity - s.damping * v[i]) + external.map_or(Vec3::ZERO, |e| e[i]);
+    }
+}
+
+/// The second half of [`linearise`]: the operator (and the coarse one) for
+/// the inverse masses `w` (1/kg) with the contacts' blocks already in
+/// `op.extra`.
+fn build(dynamics: &Dynamics, w: &[f32], alpha: f32, beta: f32, buffers: &mut ImplicitBuffers) {
+    let s = dynamics.settings;
+    let columns = dynamics.connections.columns as usize;
+    let mass_scale = 1.0 + alpha * s.damping;
+    let ImplicitBuffers {
+        blocks,
+        streams,
+        op,
+        coarse,
+        ..
+    } = buffers;
+    let (blocks, streams) = (&blocks[..], &*streams);
+    let share = buffers.share;
+    let extra = op.extra.clone();
+    let mut build = move || {
+        op.build_with(
+            columns,
+            (w, mass_scale),
+            (blocks, streams.blocks()),
+            (alpha, beta),
+        )
+    };
+    let mut build_coarse = move || {
+        s.implicit.coarse_grid && coarse.begin(columns, w, mass_scale) && {
+            coarse.add_pairs(w.len(), (blocks, streams.blocks()), (alpha, beta));
+            for (i, c) in &extra {
+                coarse.add_diagonal(*i as usize, c);
+            }
+            coarse.finish()
+        }
+    };
+    // The coarse grid's assembly and factorisation need only the blocks:
+    // on the helper, when the solve is to share with it, it is awake.
+    let ((), active) = if share {
+        team::both(build, build_coarse)
+    } else {
+        (build(), build_coarse())
+    };
+    buffers.coarse_active = active;
+}
+
+/// Assembles the step at `(x, v)` (`w` as for [`linearise`]), holds this
+/// step's contacts ([`ContactBuffers::begin`]) and builds the operator. `displacement` is
+/// what the step moves each particle besides `γ Δv` (m), as a slice and a
+/// scale; `h` the step (s). Returns whether any contact is held.
+fn linearise_held(
+    dynamics: &Dynamics,
+    (x, v, w): (&[Vec3], &[Vec3], Option<&[Vec3]>),
+    (alpha, beta, h): (f32, f32, f32),
+    displacement: (&[Vec3], f32),
+    buffers: &mut ImplicitBuffers,
+) -> bool {
+    assemble(dynamics, (x, v, w.unwrap_or(v)), alpha, beta, buffers);
+    let ImplicitBuffers {
+        contacts, force, ..
+    } = buffers;
+    let held = contacts.begin(
+        dynamics.inverse_masses,
+        force,
+        v,
+        displacement,
+        (alpha, beta, h),
+    );
+    build_held(dynamics, (alpha, beta), buffers);
+    held
+}
+
+/// The operator with the held contacts' current terms
+/// ([`ContactBuffers::emit`]) in it, and their right-hand sides in
+/// `contact_rhs`.
+fn build_held(dynamics: &Dynamics, (alpha, beta): (f32, f32), buffers: &mut ImplicitBuffers) {
+    let ImplicitBuffers {
+        contacts,
+        op,
+        contact_rhs,
+        ..
+    } = buffers;
+    contact_rhs.clear();
+    contacts.emit(&mut op.extra, |p, r| contact_rhs.push((p, r)));
+    build(dynamics, dynamics.inverse_masses, alpha, beta, buffers);
+}
+
+fn solve(dynamics: &Dynamics, buffers: &mut ImplicitBuffers) {
+    let (iterations, residual) = pcg(&dynamics.settings.implicit, buffers);
+    buffers.last_iterations = iterations;
+    buffers.last_residual = residual;
+}
+
+/// One step of linearised backward Euler (MODEL.md §6.5):
+/// `(M − hD − h²K) Δv = h(F₀ + hKv₀)`, `v₁ = v₀ + Δv`, `x₁ = x₀ + h v₁`.
+///
+/// `x` in m, `v` in m/s, `h` in s. First order, unconditionally stable for
+/// the positive semidefinite Jacobians of
+/// [`jacobian`](crate::sim::model::jacobian).
+pub fn backward_euler(
+    dynamics: &Dynamics,
+    x: &mut [Vec3],
+    v: &mut [Vec3],
+    h: f32,
+    buffers: &mut ImplicitBuffers,
+) {
+    buffers.resize(x.len());
+    buffers.prev_x.copy_from_slice(x);
+    buffers.prev_v.copy_from_slice(v);
+    buffers.target_v.copy_from_slice(v);
+    buffers.gamma = h;
+    backward_euler_step(dynamics, x, v, h, buffers);
+    buffers.history = Some(h);
+    buffers.expected_x.copy_from_slice(x);
+}
+
+fn backward_euler_step(
+    dynamics: &Dynamics,
+    x: &mut [Vec3],
+    v: &mut [Vec3],
+    h: f32,
+    buffers: &mut ImplicitBuffers,
+) {
+    let held = if buffers.contacts.list.is_empty() && !buffers.contacts.any() {
+        linearise(dynamics, (x, v, v), h, h * h, buffers);
+        false
+    } else {
+        // `prev_v` holds v₀ (copied by `backward_euler`): D = h v₀.
+        let v0 = std::mem::take(&mut buffers.prev_v);
+        let held = linearise_held(dynamics, (x, v, None), (h, h * h, h), (&v0, h), buffers);
+        buffers.prev_v = v0;
+        held
+    };
+    let fill = |buffers: &mut ImplicitBuffers| {
+        for i in 0..x.len() {
+            let rhs = h * (buffers.force[i] + h * buffers.tmp[i]);
+            buffers.rhs.set(i, rhs);
+        }
+        add_contact_rhs(buffers);
+        buffers.rhs.filter(&buffers.op.free);
+    };
+    fill(buffers);
+    solve(dynamics, buffers);
+    for i in 0..x.len() {
+        v[i] += buffers.dv.get(i);
+        x[i] += h * v[i];
+    }
+    if held {
+        let ImplicitBuffers { contacts, dv, .. } = buffers;
+        contacts.finish((x, v), |i| dv.get(i), (h, h));
+    }
+}
+
+/// Adds the sliding contacts' terms to the right-hand side.
+fn add_contact_rhs(buffers: &mut ImplicitBuffers) {
+    for &(p, r) in &buffers.contact_rhs {
+        buffers.rhs.set(p, buffers.rhs.get(p) + r);
+    }
+}
+
+/// How far (m) the state may have moved from where the last step left it
+/// before the BDF2 history is considered stale (a reset, a teleport).
+/// Collision corrections are far smaller.
+const HISTORY_SLACK: f32 = 0.01;
+
+/// One step of second-order BDF (MODEL.md §6.6), the integrator Choi & Ko
+/// used, linearised with one Newton step:
+/// `(M − ⅔hD − 4⁄9h²K) Δv = ⅓M(vₙ − vₙ₋₁) + ⅔h[Fₙ + K(⅓(xₙ − xₙ₋₁) + ⅔h vₙ)]`,
+/// `vₙ₊₁ = vₙ + Δv`, `xₙ₊₁ = 4⁄3xₙ − ⅓xₙ₋₁ + ⅔h vₙ₊₁`.
+///
+/// Without a usable history (the first step, a changed `h` or particle
+/// count, or a state moved more than 1 cm from where the last step left it)
+/// the step is backward Euler. `x` in m, `v` in m/s, `h` in s.
+pub fn bdf2(
+    dynamics: &Dynamics,
+    x: &mut [Vec3],
+    v: &mut [Vec3],
+    h: f32,
+    buffers: &mut ImplicitBuffers,
+) {
+    buffers.resize(x.len());
+    let fresh = buffers.history == Some(h)
+        && x.iter()
+            .zip(&buffers.expected_x)
+            .all(|(a, b)| a.distance_squared(*b) <= HISTORY_SLACK * HISTORY_SLACK);
+    if !fresh {
+        backward_euler(dynamics, x, v, h, buffers);
+        return;
+    }
+    let (alpha, beta) = (2.0 / 3.0 * h, 4.0 / 9.0 * h * h);
+    // A pinned particle moves by exactly h·v (its prescribed motion), not
+    // by the BDF2 extrapolation of its history: a grab that let go of it
+    // leaves it where it is.
+    let pinned = |i: usize| dynamics.inverse_masses.get(i) == Some(&0.0);
+    for i in 0..x.len() {
+        buffers.w_term[i] = if pinned(i) {
+            h * v[i]
+        } else {
+            (x[i] - buffers.prev_x[i]) / 3.0 + 2.0 / 3.0 * h * v[i]
+        };
+    }
+    let w_term = std::mem::take(&mut buffers.w_term);
+    let held = if buffers.contacts.list.is_empty() && !buffers.contacts.any() {
+        linearise(dynamics, (x, v, &w_term), alpha, beta, buffers);
+        false
+    } else {
+        let h = 1.5 * alpha;
+        linearise_held(
+            dynamics,
+            (x, v, Some(&w_term)),
+            (alpha, beta, h),
+            (&w_term, 1.0),
+            buffers,
+        )
+    };
+    buffers.w_term = w_term;
+    for ((target, &vn), &vp) in buffers.target_v.iter_mut().zip(&*v).zip(&buffers.prev_v) {
+        *target = vn + (vn - vp) / 3.0;
+    }
+    buffers.gamma = 2.0 / 3.0 * h;
+    let fill = |buffers: &mut ImplicitBuffers| {
+        for (i, &w) in dynamics.inverse_masses.iter().enumerate() {
+            let inertia = if w == 0.0 {
+                Vec3::ZERO
+            } else {
+                (v[i] - buffers.prev_v[i]) / (3.0 * w)
+            };
+            let rhs = inertia + 2.0 / 3.0 * h * (buffers.force[i] + buffers.tmp[i]);
+            buffers.rhs.set(i, rhs);
+        }
+        add_contact_rhs(buffers);
+        buffers.rhs.filter(&buffers.op.free);
+    };
+    fill(buffers);
+    solve(dynamics, buffers);
+    for i in 0..x.len() {
+        let (xn, vn) = (x[i], v[i]);
+        let v1 = vn + buffers.dv.get(i);
+        // 4⁄3xₙ − ⅓xₙ₋₁ + ⅔hv written as xₙ plus a small increment, so f32
+        // rounds once per step instead of cancelling large terms.
+        let x1 = if pinned(i) {
+            xn + h * v1
+        } else {
+            xn + ((xn - buffers.prev_x[i]) / 3.0 + 2.0 / 3.0 * h * v1)
+        };
+        buffers.prev_x[i] = xn;
+        buffers.prev_v[i] = vn;
+        x[i] = x1;
+        v[i] = v1;
+    }
+    if held {
+        let ImplicitBuffers { contacts, dv, .. } = buffers;
+        contacts.finish((x, v), |i| dv.get(i), (alpha, h));
+    }
+    buffers.expected_x.copy_from_slice(x);
+}
+
+/// One more Newton iteration of the last implicit step, at the state
+/// `(x, v)` it left (m, m/s): with that step written as `x₁ = a + γv₁` and
+/// `M(v₁ − b) = γF(x₁, v₁)` (backward Euler: `b = v₀`, `γ = h`; BDF2:
+/// `b = ⁴⁄₃vₙ − ⅓vₙ₋₁`, `γ = ⅔h`), solves
+/// `(M − γD − γ²K(x₁)) δ = γF(x₁, v₁) − M(v₁ − b)` and moves
+/// `v₁ += δ`, `x₁ += γδ`.
+///
+/// The step itself linearises the forces at its start. When it moves the
+/// cloth far from there (a strong gust on a slack sheet, whose linearised
+/// stiffness across its plane is zero), the forces at the end differ from
+/// the linearisation and the links overshoot; an iteration at the end
+/// brings them back. Call it only right after [`backward_euler`] or
+/// [`bdf2`] with the same `dynamics`.
+pub fn newton_correction(
+    dynamics: &Dynamics,
+    x: &mut [Vec3],
+    v: &mut [Vec3],
+    buffers: &mut ImplicitBuffers,
+) {
+    let gamma = buffers.gamma;
+    if x.len() != buffers.target_v.len() || gamma.is_nan() || gamma <= 0.0 {
+        return;
+    }
+    linearise(dynamics, (x, v, v), gamma, gamma * gamma, buffers);
+    for (i, &w) in dynamics.inverse_masses.iter().enumerate() {
+        let inertia = if w == 0.0 {
+            Vec3::ZERO
+        } else {
+            (v[i] - buffers.target_v[i]) / w
+        };
+        buffers.rhs.set(i, gamma * buffers.force[i] - inertia);
+    }
+    buffers.rhs.filter(&buffers.op.free);
+    buffers.warm = false;
+    solve(dynamics, buffers);
+    buffers.warm = false;
+    for i in 0..x.len() {
+        let delta = buffers.dv.get(i);
+        v[i] += delta;
+        x[i] += gamma * delta;
+    }
+    buffers.expected_x.copy_from_slice(x);
+}
+
+#[cfg(test)]
+mod tests;
+
+mod coarse;
+pub mod contacts;
+mod halves;
+mod operator;

@@ -1,0 +1,469 @@
+//! Unit tests of the implicit integrators: the solver against a dense
+//! solve, pins, the operator's block order, and the orders of accuracy.
+
+use super::*;
+use crate::plugin::builder::ClothBuilder;
+use crate::sim::connections::{Connections, Link};
+use crate::sim::model::jacobian::assemble;
+use crate::sim::settings::{ClothModel, SimSettings};
+
+/// Dense `A` (3n × 3n, f64) from the operator's pairs, pinned rows and
+/// columns replaced by the identity.
+#[expect(
+    clippy::needless_range_loop,
+    reason = "dense matrix indices read best as indices"
+)]
+fn dense(op: &Operator) -> Vec<Vec<f64>> {
+    let mass = op.mass();
+    let n = mass.len();
+    let mut a = vec![vec![0.0f64; 3 * n]; 3 * n];
+    for i in 0..n {
+        for k in 0..3 {
+            a[3 * i + k][3 * i + k] = mass[i] as f64;
+        }
+    }
+    for (p, q, c) in op.pairs() {
+        let c = operator::sym_matrix(&c);
+        for r in 0..3 {
+            for s in 0..3 {
+                let v = c.col(s)[r] as f64;
+                a[3 * p + r][3 * p + s] += v;
+                a[3 * q + r][3 * q + s] += v;
+                a[3 * p + r][3 * q + s] -= v;
+                a[3 * q + r][3 * p + s] -= v;
+            }
+        }
+    }
+    for i in (0..n).filter(|&i| op.free[i] == 0.0) {
+        for k in 0..3 {
+            for j in 0..3 * n {
+                a[3 * i + k][j] = 0.0;
+                a[j][3 * i + k] = 0.0;
+            }
+            a[3 * i + k][3 * i + k] = 1.0;
+        }
+    }
+    a
+}
+
+/// A deformed, moving `n × n` cloth pinned at two corners and the
+/// Jacobian blocks at its state.
+fn deformed(n: u32) -> (crate::plugin::builder::ClothBundle, Vec<Vec3>, Vec<Block>) {
+    let mut cloth = ClothBuilder::new(n, n).pin(0).pin(n - 1).build().unwrap();
+    // Deform: stretch some links, compress others.
+    for (i, x) in cloth.particles.positions.iter_mut().enumerate() {
+        let s = i as f32;
+        *x += 0.3 / n as f32 * Vec3::new((s * 1.3).sin(), (s * 0.7).cos(), (s * 2.1).sin());
+    }
+    let v: Vec<Vec3> = (0..n * n)
+        .map(|i| Vec3::splat((i as f32 * 0.4).cos()))
+        .collect();
+    let mut blocks = Vec::new();
+    let mut f = vec![Vec3::ZERO; v.len()];
+    let settings = SimSettings::default();
+    let x = &cloth.particles.positions;
+    assemble(
+        &settings,
+        &cloth.connections,
+        true,
+        x,
+        &v,
+        &mut f,
+        &mut blocks,
+    );
+    (cloth, v, blocks)
+}
+
+/// `n` vectors `f(i)`, stored component by component.
+fn soa(n: usize, f: impl Fn(usize) -> Vec3) -> Soa {
+    let mut s = Soa::default();
+    s.resize(n);
+    for i in 0..n {
+        s.set(i, f(i));
+    }
+    s
+}
+
+/// A smooth but irregular test vector for particle `i` (dimensionless).
+fn wiggle(i: usize) -> Vec3 {
+    let s = i as f32;
+    Vec3::new(s.sin(), (0.3 * s).cos(), 1.0 - 0.01 * s)
+}
+
+/// A crease-like pair of a 9×9 grid that the streams do not hold, with
+/// transverse stiffness `k` (N/m), three times that along its direction.
+fn stray_block(k: f32) -> Block {
+    Block {
+        a: 3,
+        b: 50,
+        u: Vec3::new(0.6, 0.0, 0.8),
+        axial: 3.0 * k,
+        transverse: k,
+        damping: 0.5,
+    }
+}
+
+#[test]
+fn the_streams_give_the_product_of_the_pair_list() {
+    let (cloth, _, mut blocks) = deformed(9);
+    blocks.push(stray_block(1.0));
+    let w = &cloth.particles.inverse_masses;
+    let h = 1.0 / 60.0;
+    let (mut grid, mut list) = (Operator::default(), Operator::default());
+    grid.build(9, w, 1.1, &blocks, h, h * h, None);
+    list.build(0, w, 1.1, &blocks, h, h * h, None);
+    let pairs = grid.pairs().len();
+    assert!(pairs > 250 && list.pairs().len() == pairs, "{pairs} pairs");
+    let mut d = soa(81, wiggle);
+    d.filter(&grid.free);
+    let (mut a, mut b) = (soa(81, |_| Vec3::ZERO), soa(81, |_| Vec3::ZERO));
+    grid.apply(&d, &mut a);
+    list.apply(&d, &mut b);
+    for i in 0..81 {
+        let (p, q) = (a.get(i), b.get(i));
+        assert!(
+            (p - q).length() <= 1e-5 * (1.0 + q.length()),
+            "{i}: {p} vs {q}"
+        );
+    }
+    assert_eq!(a.get(0), Vec3::ZERO, "a pinned row is filtered");
+}
+
+#[test]
+fn block_jacobi_inverts_the_diagonal_blocks() {
+    let (cloth, _, mut blocks) = deformed(9);
+    blocks.push(stray_block(1.0e4));
+    let w = &cloth.particles.inverse_masses;
+    let h = 1.0 / 60.0;
+    let mut op = Operator::default();
+    op.build(9, w, 1.1, &blocks, h, h * h, None);
+    let a = dense(&op);
+    // For r = A's diagonal block of each free particle times a unit
+    // vector (zero elsewhere), B⁻¹r must give that unit vector back.
+    let mut checked = 0;
+    for i in (0..81).filter(|&i| op.free[i] != 0.0) {
+        for k in 0..3 {
+            let mut r = Soa::default();
+            r.resize(81);
+            let column = |row: usize| a[3 * i + row][3 * i + k] as f32;
+            r.set(i, Vec3::new(column(0), column(1), column(2)));
+            let mut y = Soa::default();
+            y.resize(81);
+            op.precondition(&r, &mut y);
+            let mut unit = Vec3::ZERO;
+            unit[k] = 1.0;
+            let err = (y.get(i) - unit).length();
+            assert!(err < 1e-4, "particle {i}, axis {k}: {}", y.get(i));
+            checked += 1;
+        }
+    }
+    assert_eq!(checked, 3 * 79);
+}
+
+#[test]
+fn the_coarse_operator_is_r_transpose_a_r() {
+    // In aggregates of 4×4 (8×8 for 64): coarse grids of 1×1 (the
+    // separator band alone), 2×2 (no band above it), 3×3 (every kind of
+    // neighbour, across, down and both diagonals, and the pins' aggregate),
+    // 4×4 and 5×5 (several bands on either side) and 8×8.
+    for (n, side) in [(4, 1), (8, 2), (12, 3), (16, 4), (20, 5), (64, 8)] {
+        let (cloth, _, blocks) = deformed(n);
+        let w = &cloth.particles.inverse_masses;
+        let particles = (n * n) as usize;
+        let h = 1.0 / 60.0;
+        let mut coarse = Coarse::default();
+        assert!(coarse.begin(n as usize, w, 1.1));
+        let mut op = Operator::default();
+        op.build(n as usize, w, 1.1, &blocks, h, h * h, Some(&mut coarse));
+        assert!(coarse.finish());
+        assert_eq!(coarse.aggregate_of(particles - 1), side * side - 1);
+        // A_c⁻¹ applied to Rᵀ(A R e) must give back e, for any e per
+        // aggregate.
+        let e: Vec<Vec3> = (0..side * side)
+            .map(|k| Vec3::new(1.0 + k as f32, -0.5 * k as f32, 0.25))
+            .collect();
+        let mut re = Soa::default();
+        re.resize(particles);
+        for (p, &wp) in w.iter().enumerate() {
+            if wp != 0.0 {
+                re.set(p, e[coarse.aggregate_of(p)]);
+            }
+        }
+        let mut are = Soa::default();
+        are.resize(particles);
+        op.apply(&re, &mut are);
+        // y = R A_c⁻¹ Rᵀ (A R e) = R e at free particles, to the digits
+        // the f32 product leaves of a stiff operator: at 64×64, 0.9982 for
+        // 1 (the same from the banded factor of all bands at once).
+        let mut y = Soa::default();
+        y.resize(particles);
+        coarse.add(&are, &mut y, &op.free);
+        let tolerance = if n < 64 { 1e-3 } else { 3e-3 };
+        for (p, &wp) in w.iter().enumerate() {
+            let want = if wp == 0.0 { Vec3::ZERO } else { re.get(p) };
+            assert!(
+                (y.get(p) - want).length() < tolerance * want.length().max(1.0),
+                "{n}×{n}, {p}: {} vs {want}",
+                y.get(p)
+            );
+        }
+    }
+}
+
+/// The dynamics of `cloth` (no external forces) and buffers holding the
+/// backward-Euler operator at its state with velocities `v` (m/s) for a
+/// step of `h` seconds.
+fn linearised<'a>(
+    settings: &'a SimSettings,
+    cloth: &'a crate::plugin::builder::ClothBundle,
+    v: &[Vec3],
+    h: f32,
+) -> (Dynamics<'a>, ImplicitBuffers) {
+    let dynamics = Dynamics {
+        settings,
+        connections: &cloth.connections,
+        inverse_masses: &cloth.particles.inverse_masses,
+        external: &[],
+        workers: crate::sim::workers::Pool::none(),
+    };
+    let mut buffers = ImplicitBuffers::default();
+    buffers.resize(v.len());
+    let x = &cloth.particles.positions;
+    linearise(&dynamics, (x, v, v), h, h * h, &mut buffers);
+    (dynamics, buffers)
+}
+
+#[test]
+fn the_coarse_grid_cuts_the_iterations_of_a_stiff_cloth() {
+    let (cloth, v, _) = deformed(32);
+    let solve_with = |coarse_grid| {
+        let mut settings = SimSettings::default();
+        settings.implicit.coarse_grid = coarse_grid;
+        settings.implicit.max_iterations = 1000;
+        settings.implicit.tolerance = 1e-6;
+        settings.implicit.velocity_tolerance = 0.0;
+        settings.implicit.velocity_tolerance = 0.0;
+        let w = &cloth.particles.inverse_masses;
+        let h = 1.0 / 60.0;
+        let (dynamics, mut buffers) = linearised(&settings, &cloth, &v, h);
+        for i in 0..w.len() {
+            buffers.rhs.set(i, h * buffers.force[i]);
+        }
+        buffers.rhs.filter(&buffers.op.free);
+        solve(&dynamics, &mut buffers);
+        assert!(buffers.last_residual <= settings.implicit.tolerance);
+        let dv: Vec<Vec3> = (0..w.len()).map(|i| buffers.dv.get(i)).collect();
+        (buffers.last_iterations, buffers.coarse_active, dv)
+    };
+    let (plain, off, dv_plain) = solve_with(false);
+    let (two_level, on, dv_two) = solve_with(true);
+    assert!(!off && on);
+    assert!(
+        (two_level as f32) < 0.7 * plain as f32,
+        "{two_level} iterations with the coarse grid, {plain} without"
+    );
+    // Both reach the same Δv.
+    let norm = dv_plain
+        .iter()
+        .map(|d| d.length_squared())
+        .sum::<f32>()
+        .sqrt();
+    let diff = dv_plain
+        .iter()
+        .zip(&dv_two)
+        .map(|(a, b)| (*a - *b).length_squared())
+        .sum::<f32>()
+        .sqrt();
+    assert!(diff < 1e-2 * norm, "{diff} of {norm}");
+}
+
+/// Gaussian elimination with partial pivoting.
+#[expect(
+    clippy::needless_range_loop,
+    reason = "dense matrix indices read best as indices"
+)]
+fn gauss(mut a: Vec<Vec<f64>>, mut b: Vec<f64>) -> Vec<f64> {
+    let n = b.len();
+    for col in 0..n {
+        let pivot = (col..n)
+            .max_by(|&i, &j| a[i][col].abs().total_cmp(&a[j][col].abs()))
+            .unwrap();
+        a.swap(col, pivot);
+        b.swap(col, pivot);
+        for row in col + 1..n {
+            let f = a[row][col] / a[col][col];
+            for k in col..n {
+                a[row][k] -= f * a[col][k];
+            }
+            b[row] -= f * b[col];
+        }
+    }
+    let mut x = vec![0.0; n];
+    for row in (0..n).rev() {
+        let s: f64 = (row + 1..n).map(|k| a[row][k] * x[k]).sum();
+        x[row] = (b[row] - s) / a[row][row];
+    }
+    x
+}
+
+#[test]
+fn pcg_matches_a_dense_solve_and_leaves_pins_alone() {
+    // 6×6: streams, a coarse grid of 3×3 aggregates and pins at 0 and 5.
+    let (cloth, v, _) = deformed(6);
+    let n = v.len();
+    let mut settings = SimSettings::default();
+    settings.implicit.coarse_grid = true;
+    settings.implicit.tolerance = 1e-6;
+    settings.implicit.velocity_tolerance = 0.0;
+    settings.implicit.max_iterations = 500;
+    let (dynamics, mut buffers) = linearised(&settings, &cloth, &v, 1.0 / 30.0);
+    assert!(buffers.coarse_active);
+    for i in 0..n {
+        buffers
+            .rhs
+            .set(i, Vec3::new(1.0, -2.0, 0.5) * (i as f32 * 0.3).sin() * 1e-3);
+    }
+    buffers.rhs.filter(&buffers.op.free);
+    solve(&dynamics, &mut buffers);
+    let a = dense(&buffers.op);
+    let rhs: Vec<Vec3> = (0..n).map(|i| buffers.rhs.get(i)).collect();
+    let b: Vec<f64> = rhs
+        .iter()
+        .flat_map(|r| r.to_array().map(|c| c as f64))
+        .collect();
+    let exact = gauss(a, b);
+    let norm: f64 = exact.iter().map(|x| x * x).sum::<f64>().sqrt();
+    let dv: Vec<Vec3> = (0..n).map(|i| buffers.dv.get(i)).collect();
+    let err: f64 = dv
+        .iter()
+        .flat_map(|d| d.to_array())
+        .zip(&exact)
+        .map(|(g, e)| (g as f64 - e).powi(2))
+        .sum::<f64>()
+        .sqrt();
+    assert!(
+        err < 1e-3 * norm,
+        "PCG error {err} of {norm} after {} iterations",
+        buffers.last_iterations
+    );
+    assert!(buffers.last_residual <= 1e-6);
+    // Pins: Δv exactly zero.
+    assert_eq!(buffers.dv.get(0), Vec3::ZERO);
+    assert_eq!(buffers.dv.get(5), Vec3::ZERO);
+
+    // Warm start: the same system again starts at its solution and
+    // needs (almost) no iterations; a slightly changed one needs fewer
+    // than from zero and meets the same tolerance.
+    let cold = buffers.last_iterations;
+    let first = dv;
+    solve(&dynamics, &mut buffers);
+    assert!(buffers.last_iterations <= 1, "{}", buffers.last_iterations);
+    for c in &mut buffers.rhs.0 {
+        for r in c {
+            *r *= 1.01;
+        }
+    }
+    solve(&dynamics, &mut buffers);
+    let warm = buffers.last_iterations;
+    assert!(warm < cold, "warm {warm} vs cold {cold} iterations");
+    assert!(buffers.last_residual <= 1e-6);
+    let scaled = first
+        .iter()
+        .enumerate()
+        .map(|(i, a)| (*a * 1.01 - buffers.dv.get(i)).length());
+    assert!(scaled.fold(0.0, f32::max) < 1e-3 * norm as f32);
+    // A forgotten history starts cold again.
+    buffers.reset_history();
+    solve(&dynamics, &mut buffers);
+    assert_eq!(buffers.last_iterations, cold);
+}
+
+#[test]
+fn pinned_particles_keep_their_prescribed_velocity_exactly() {
+    let mut cloth = ClothBuilder::new(5, 5).pin(0).pin(4).build().unwrap();
+    cloth.particles.velocities[4] = Vec3::new(0.3, 0.0, -0.1); // a moving anchor
+    let settings = SimSettings::default();
+    for integrator in [backward_euler, bdf2] {
+        let mut x = cloth.particles.positions.clone();
+        let mut v = cloth.particles.velocities.clone();
+        let w = cloth.particles.inverse_masses.clone();
+        let dynamics = Dynamics {
+            settings: &settings,
+            connections: &cloth.connections,
+            inverse_masses: &w,
+            external: &[],
+            workers: crate::sim::workers::Pool::none(),
+        };
+        let mut buffers = ImplicitBuffers::default();
+        for _ in 0..30 {
+            integrator(&dynamics, &mut x, &mut v, 1.0 / 60.0, &mut buffers);
+        }
+        assert_eq!(x[0], cloth.particles.positions[0]);
+        assert_eq!(v[0], Vec3::ZERO);
+        assert_eq!(v[4], Vec3::new(0.3, 0.0, -0.1));
+        assert!((x[4] - (cloth.particles.positions[4] + 0.5 * v[4])).length() < 1e-5);
+        assert!(x.iter().all(|p| p.is_finite()));
+    }
+}
+
+/// A mass on a spring to a pin, `ẍ = −ω²x − c ẋ` along the spring.
+fn spring_error(
+    step: fn(&Dynamics, &mut [Vec3], &mut [Vec3], f32, &mut ImplicitBuffers),
+    dt: f32,
+) -> f64 {
+    let (k, m, c) = (40.0f32, 1.0f32, 0.5f32);
+    let mut settings = SimSettings::default().with_model(ClothModel::Lander);
+    settings.gravity = Vec3::ZERO;
+    settings.damping = c;
+    settings.lander.structural.stiffness = k;
+    settings.lander.structural.damping = 0.0;
+    settings.implicit.tolerance = 1e-7;
+    settings.implicit.velocity_tolerance = 0.0;
+    let connections = Connections {
+        structural: vec![Link {
+            a: 0,
+            b: 1,
+            rest_length: 1.0,
+        }],
+        ..Default::default()
+    };
+    let w = [0.0, 1.0 / m];
+    let dynamics = Dynamics {
+        settings: &settings,
+        connections: &connections,
+        inverse_masses: &w,
+        external: &[],
+        workers: crate::sim::workers::Pool::none(),
+    };
+    let mut x = [Vec3::ZERO, Vec3::new(1.1, 0.0, 0.0)];
+    let mut v = [Vec3::ZERO; 2];
+    let mut buffers = ImplicitBuffers::default();
+    // The largest error over 1 s (a single time would depend on phase).
+    let steps = (1.0 / dt).round() as usize;
+    let (omega2, zw) = ((k / m) as f64, c as f64 / 2.0);
+    let wd = (omega2 - zw * zw).sqrt();
+    let mut worst = 0.0f64;
+    for n in 1..=steps {
+        step(&dynamics, &mut x, &mut v, dt, &mut buffers);
+        let t = n as f64 * dt as f64;
+        let exact = 0.1 * (-zw * t).exp() * ((wd * t).cos() + zw / wd * (wd * t).sin());
+        worst = worst.max(((x[1].x - 1.0) as f64 - exact).abs());
+    }
+    worst
+}
+
+#[test]
+fn backward_euler_is_first_order_and_bdf2_second_order() {
+    // Observed order log₂(e(dt)/e(dt/2)): ~1 for BE (error halves), ~2
+    // for BDF2 (error quarters; its first step is BE, so allow 1.7–2.3).
+    let order = |s: fn(&Dynamics, &mut [Vec3], &mut [Vec3], f32, &mut ImplicitBuffers)| {
+        (spring_error(s, 0.004) / spring_error(s, 0.002)).log2()
+    };
+    let (be, bdf) = (order(backward_euler), order(bdf2));
+    assert!((0.85..1.15).contains(&be), "backward Euler order {be}");
+    assert!((1.7..2.3).contains(&bdf), "BDF2 order {bdf}");
+}
+
+mod contacts;
+mod streamed;
+mod two_threads;

@@ -1,0 +1,128 @@
+//! Contacts held in the solve, on one particle whose answers can be worked
+//! by hand: it rests, lets go, sticks within the friction cone and slides
+//! outside it.
+
+use super::*;
+use crate::sim::integrate::implicit::contacts::STICK_SPEED;
+
+/// Mass (kg) and step (s) of the tests.
+const M: f32 = 0.01;
+const H: f32 = 1.0 / 60.0;
+
+/// `steps` backward-Euler steps of one free particle on the floor `y = 0`
+/// (friction `mu`, contact thickness 0) from `y`, at rest, under gravity
+/// and the external force `push` (N), listing the contact before each
+/// step as a caller would. Returns the end state and the last hold.
+fn on_floor(y: f32, push: Vec3, mu: f32, steps: usize) -> (Vec3, Vec3, Hold) {
+    let settings = SimSettings {
+        damping: 0.0,
+        ..SimSettings::default()
+    };
+    let connections = Connections::default();
+    let w = [1.0 / M];
+    let external = [push];
+    let dynamics = Dynamics {
+        settings: &settings,
+        connections: &connections,
+        inverse_masses: &w,
+        external: &external,
+        workers: crate::sim::workers::Pool::none(),
+    };
+    let (mut x, mut v) = ([Vec3::new(0.0, y, 0.0)], [Vec3::ZERO]);
+    let mut buffers = ImplicitBuffers::default();
+    for _ in 0..steps {
+        let gap = x[0].y;
+        buffers.contacts.list.clear();
+        let arriving = gap + H * v[0].y < 0.0;
+        if gap <= 1e-4 || arriving {
+            buffers.contacts.list.push(SolveContact {
+                particle: 0,
+                normal: Vec3::Y,
+                gap,
+                velocity: Vec3::ZERO,
+                friction: mu,
+            });
+        }
+        backward_euler(&dynamics, &mut x, &mut v, H, &mut buffers);
+    }
+    (x[0], v[0], buffers.contacts.hold(0))
+}
+
+#[test]
+fn a_particle_at_rest_on_the_floor_stays_on_it_and_carries_its_weight() {
+    let (x, v, hold) = on_floor(0.0, Vec3::ZERO, 0.5, 120);
+    // κ = 1000: within g h² / κ of the surface.
+    assert!(x.y.abs() < 9.81 * H * H / 1000.0 * 2.0, "{x}");
+    assert!(v.length() < 1e-4, "{v}");
+    assert_eq!(hold, Hold::Stick);
+}
+
+#[test]
+fn a_falling_particle_lands_on_the_floor_in_one_step() {
+    // 3 m/s down from 1 cm: it would pass 4 cm through the floor.
+    let settings = SimSettings::default();
+    let connections = Connections::default();
+    let w = [1.0 / M];
+    let dynamics = Dynamics {
+        settings: &settings,
+        connections: &connections,
+        inverse_masses: &w,
+        external: &[],
+        workers: crate::sim::workers::Pool::none(),
+    };
+    let (mut x, mut v) = ([Vec3::Y * 0.01], [Vec3::NEG_Y * 3.0]);
+    let mut buffers = ImplicitBuffers::default();
+    buffers.contacts.list.push(SolveContact {
+        particle: 0,
+        normal: Vec3::Y,
+        gap: 0.01,
+        velocity: Vec3::ZERO,
+        friction: 0.0,
+    });
+    backward_euler(&dynamics, &mut x, &mut v, H, &mut buffers);
+    // It ends on the surface (to within 1/(1 + κ) of the 5 cm it would
+    // have moved into it), with the velocity that took it there in the
+    // step (the 1 cm it fell, over h).
+    assert!(x[0].y.abs() < 0.05 / 1000.0 * 2.0, "{}", x[0]);
+    assert!((v[0].y + 0.01 / H).abs() < 0.01, "{}", v[0]);
+    // The next step stops it there.
+    buffers.contacts.list[0].gap = x[0].y;
+    backward_euler(&dynamics, &mut x, &mut v, H, &mut buffers);
+    assert!(
+        x[0].y.abs() < 1e-4 && v[0].y.abs() < 0.05,
+        "{} {}",
+        x[0],
+        v[0]
+    );
+}
+
+#[test]
+fn a_particle_pulled_off_the_floor_is_let_go() {
+    // Twice its weight upwards: it leaves with (2mg − mg)/m = g.
+    let (x, v, hold) = on_floor(0.0, Vec3::Y * 2.0 * M * 9.81, 0.5, 30);
+    assert_eq!(hold, Hold::Free);
+    let t = 30.0 * H;
+    assert!((v.y - 9.81 * t).abs() < 0.05 * 9.81 * t, "{v}");
+    assert!(x.y > 0.4 * 9.81 * t * t, "{x}");
+}
+
+#[test]
+fn friction_holds_inside_its_cone_and_slides_by_coulomb_outside_it() {
+    // μ m g = 0.049 N. A push of 0.04 N: held, creeping slower than the
+    // stick speed.
+    let mu = 0.5;
+    let (x, v, hold) = on_floor(0.0, Vec3::X * 0.04, mu, 60);
+    assert!(v.length() < STICK_SPEED, "{v}");
+    assert!(x.x.abs() < 60.0 * H * STICK_SPEED, "{x}");
+    assert_eq!(hold, Hold::Stick);
+    // A push of 0.08 N: it slides at (0.08 − 0.049)/m = 3.1 m/s², after a
+    // first step in which the holding damping lets it reach the stick
+    // speed only.
+    let (_, v, hold) = on_floor(0.0, Vec3::X * 0.08, mu, 61);
+    let expected = (0.08 - mu * M * 9.81) / M * 60.0 * H;
+    assert!(
+        (v.x - expected).abs() < 0.02 * expected,
+        "{v} vs {expected}"
+    );
+    assert_eq!(hold, Hold::Slide);
+}

@@ -1,0 +1,157 @@
+//! The solve shared with the helper thread against the solve on one
+//! thread, and the helper's barriers, sums and panics.
+
+use std::panic::{AssertUnwindSafe, catch_unwind};
+
+use super::*;
+use crate::sim::team::{Claim, claim};
+
+/// The helper, once no other test is using it.
+fn the_helper() -> Claim {
+    for _ in 0..10_000 {
+        if let Some(c) = claim() {
+            return c;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(1));
+    }
+    panic!("the helper thread stayed busy (or could not be spawned)");
+}
+
+/// Solves one backward-Euler step of a deformed `n × n` cloth pinned at
+/// two corners, on one thread or sharing the iterations with the helper
+/// (retried while another test holds it). Returns Δv and the solve's
+/// iterations, residual and threads.
+fn solve_on(n: u32, coarse_grid: bool, helper: bool) -> (Vec<Vec3>, u32, f32, u32) {
+    let helper_runs = crate::simd::level() > crate::simd::Level::Scalar;
+    let (cloth, v, _) = deformed(n);
+    let mut settings = SimSettings::default();
+    settings.implicit.coarse_grid = coarse_grid;
+    settings.implicit.helper_thread = helper;
+    let h = 1.0 / 60.0;
+    let (dynamics, mut buffers) = linearised(&settings, &cloth, &v, h);
+    assert_eq!(buffers.coarse_active, coarse_grid);
+    for i in 0..v.len() {
+        buffers.rhs.set(i, h * buffers.force[i]);
+    }
+    buffers.rhs.filter(&buffers.op.free);
+    let retry = helper && helper_runs && v.len() >= halves::MIN_PARTICLES;
+    for _ in 0..1000 {
+        buffers.reset_history();
+        solve(&dynamics, &mut buffers);
+        if !retry || buffers.last_threads == 2 {
+            break;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(1));
+    }
+    let dv = (0..v.len()).map(|i| buffers.dv.get(i)).collect();
+    let b = &buffers;
+    (dv, b.last_iterations, b.last_residual, b.last_threads)
+}
+
+/// 50×50 with the coarse grid (aggregates of 7×7, the last band one row
+/// deep, the cut after the fourth band) and 46×46 without (the cut in the
+/// middle): the same Δv to the bit, the same iterations and residual.
+#[test]
+fn the_helper_thread_changes_no_bit_of_the_solve() {
+    for (n, coarse_grid) in [(50, true), (46, false)] {
+        let (alone, iterations, residual, threads) = solve_on(n, coarse_grid, false);
+        assert_eq!(threads, 1);
+        assert!(iterations > 10, "{iterations} iterations: too easy a test");
+        let (shared, iterations2, residual2, threads2) = solve_on(n, coarse_grid, true);
+        // The shared solve needs the gathered product, which the portable
+        // code (`BEVY_CLOTH_SIMD=scalar`) does not have: one thread there.
+        let shares = crate::simd::level() > crate::simd::Level::Scalar;
+        assert_eq!(
+            threads2,
+            if shares { 2 } else { 1 },
+            "{n}×{n}: the helper was never free"
+        );
+        assert_eq!((iterations, residual), (iterations2, residual2));
+        for (i, (a, b)) in alone.iter().zip(&shared).enumerate() {
+            assert_eq!(
+                a.to_array().map(f32::to_bits),
+                b.to_array().map(f32::to_bits),
+                "{i}"
+            );
+        }
+    }
+}
+
+/// Below [`halves::MIN_PARTICLES`] the solve stays on one thread.
+#[test]
+fn a_small_cloth_solves_on_one_thread() {
+    let (_, _, _, threads) = solve_on(40, true, true);
+    assert_eq!(threads, 1);
+}
+
+#[test]
+fn both_halves_pass_every_barrier_and_agree_on_every_sum() {
+    let helper = the_helper();
+    let sums = helper.run(|team, part| {
+        let mut sums = Vec::new();
+        for k in 0..2000u32 {
+            let value = (part as f64 + 1.0) * k as f64;
+            sums.push(team.sum(part, (k % 2) as usize, value));
+            if k % 3 == 0 {
+                team.barrier(part);
+            }
+        }
+        sums
+    });
+    for (k, s) in sums.iter().enumerate() {
+        assert_eq!(*s, 3.0 * k as f64);
+    }
+}
+
+#[test]
+fn a_panic_in_either_half_reaches_the_caller_and_the_helper_lives_on() {
+    let helper = the_helper();
+    for panicking in [0, 1] {
+        let outcome = catch_unwind(AssertUnwindSafe(|| {
+            helper.run(|team, part| {
+                team.barrier(part);
+                if part == panicking {
+                    panic!("half {part} fails on purpose");
+                }
+                // The other half waits here until it sees the panic.
+                team.barrier(part);
+            })
+        }));
+        assert!(outcome.is_err(), "half {panicking} panicked unseen");
+        let total = helper.run(|team, part| team.sum(part, 0, 1.0));
+        assert_eq!(total, 2.0);
+    }
+}
+
+#[test]
+fn the_solve_shares_its_iterations_while_that_is_faster() {
+    use std::time::Duration;
+    let mut choice = halves::Choice::default();
+    let us = Duration::from_micros;
+    // Shared first, then alone, each timed once.
+    assert!(choice.share());
+    choice.record(2, us(1000), 50); // 20 µs per iteration
+    assert!(!choice.share());
+    choice.record(1, us(1200), 50); // 24 µs
+    // Then shared, but alone one solve in 30, and a solve of fewer than
+    // four iterations says nothing.
+    let picks: Vec<bool> = (0..60).map(|_| choice.share()).collect();
+    assert_eq!(picks.iter().filter(|&&p| !p).count(), 2, "{picks:?}");
+    choice.record(2, us(10), 2);
+    assert!(choice.share());
+    // Sharing slows down (28 µs, averaged in): alone wins.
+    for _ in 0..10 {
+        choice.record(2, us(1400), 50);
+    }
+    let picks: Vec<bool> = (0..60).map(|_| choice.share()).collect();
+    assert_eq!(picks.iter().filter(|&&p| p).count(), 2, "{picks:?}");
+    // Alone is far slower (48 µs): shared but one solve in 240.
+    for _ in 0..20 {
+        choice.record(2, us(1000), 50);
+    }
+    choice.record(1, us(2400), 50);
+    choice.record(1, us(2400), 50);
+    choice.record(1, us(2400), 50);
+    let picks: Vec<bool> = (0..480).map(|_| choice.share()).collect();
+    assert_eq!(picks.iter().filter(|&&p| !p).count(), 2, "{picks:?}");
+}

@@ -1,0 +1,64 @@
+//! The simulation: plain data and plain functions, usable without an `App`.
+//!
+//! What lives here: the grid and its links ([`grid`], [`connections`]),
+//! the particles' state ([`particles`]), every parameter of a step
+//! ([`settings`], [`material`]), the force models ([`model`]), the
+//! integrators ([`integrate`]), a step as a function ([`step`]), the
+//! divergence guard around it ([`guard`]), adaptive substeps
+//! ([`adaptive`]), the narrow phase and contacts ([`collision`]), creases'
+//! geometry ([`crease`]), wind on faces ([`wind`]), and the helper thread
+//! and worker pool that large steps share their work with ([`team`],
+//! [`workers`]).
+//!
+//! What it may import: [`bevy::math`], [`bevy::reflect`] (the types derive
+//! `Reflect` so an inspector can show them), [`crate::error`] and
+//! [`crate::simd`]. It names no ECS type (no component, resource, query,
+//! command, entity, message, task pool or app); `tests/architecture.rs`
+//! checks it. The [`plugin`](crate::plugin) wraps these types in
+//! components.
+//!
+//! ```
+//! use bevy::math::Vec3;
+//! use bevy_cloth::sim::{
+//!     connections::Connections, guard::{GuardState, step_guarded},
+//!     integrate::StepBuffers, particles::Particles, settings::SimSettings,
+//!     step::NoContacts,
+//! };
+//!
+//! // A 10×10 sheet, 1 m wide, hanging from its top corners, stepped 1 s.
+//! let (n, h) = (10u32, 1.0 / 9.0);
+//! let rest: Vec<Vec3> = (0..n * n)
+//!     .map(|p| Vec3::new((p % n) as f32 * h, 2.0 - (p / n) as f32 * h, 0.0))
+//!     .collect();
+//! let connections = Connections::grid(n, n, &rest);
+//! let mut particles = Particles::new(rest, vec![0.01; (n * n) as usize]);
+//! particles.pin(0);
+//! particles.pin(n as usize - 1);
+//! let settings = SimSettings::default();
+//! let (mut buffers, mut guard) = (StepBuffers::default(), GuardState::default());
+//! for _ in 0..60 {
+//!     let step = step_guarded(
+//!         &mut particles, &connections, &settings, &[], &mut buffers,
+//!         &mut guard, 1.0 / 60.0, None::<&mut NoContacts>, false,
+//!     );
+//!     assert!(step.report.is_none());
+//! }
+//! assert!(particles.is_finite() && particles.positions[0] == Vec3::new(0.0, 2.0, 0.0));
+//! ```
+
+pub mod adaptive;
+pub mod collision;
+pub mod connections;
+pub mod crease;
+pub mod grid;
+pub mod guard;
+pub mod integrate;
+pub mod material;
+pub mod model;
+pub mod particles;
+pub mod settings;
+pub(crate) mod soa;
+pub mod step;
+pub(crate) mod team;
+pub mod wind;
+pub mod workers;

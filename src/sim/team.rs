@@ -1,0 +1,286 @@
+//! A helper thread for the work of a large cloth: the implicit solver's
+//! conjugate gradient ([`integrate::implicit`](crate::sim::integrate::implicit)),
+//! and by halves (`team::both`) the linearisation, the coarse grid's
+//! set-up, contacts and the divergence guard's strain.
+//!
+//! The solve of a 64×64 cloth is about 55 iterations of some 35 µs, each a
+//! chain of passes that both need the whole of the last one (the product
+//! reads its neighbours' values, the dot products all of them). Bevy's
+//! task pool hands a task over in tens of µs, far too slow for a hand-over
+//! per pass; a thread that is already running and spins on a shared
+//! counter takes 0.06–0.13 µs here. So one helper thread, spawned on the
+//! first large solve and shared by the process, runs half of every pass
+//! while the calling thread runs the other half, the two meeting at a
+//! [`Team::barrier`] between passes.
+//!
+//! The helper parks when idle: it spins for a short while after a job or
+//! after [`wake`] (called as a step's set-up starts, so that it is running
+//! by the time the solve begins), then sleeps. One solve at a time uses it:
+//! a second cloth solving at the same moment, on another thread of Bevy's
+//! pool, runs on its own thread alone.
+//!
+//! A job must not panic; if one half does anyway, the other stops at its
+//! next barrier and the panic is raised on the calling thread.
+
+use std::panic::{AssertUnwindSafe, catch_unwind, resume_unwind};
+use std::sync::atomic::{AtomicBool, AtomicU32, AtomicU64, Ordering};
+use std::sync::{Mutex, MutexGuard, OnceLock};
+use std::thread::Thread;
+use std::time::{Duration, Instant};
+
+/// Particles from which a cloth's work is split with the helper thread:
+/// below, a 32×32 cloth's product takes ~5 µs, too little for the
+/// barriers and the helper's wake-up to pay.
+pub(crate) const SPLIT_PARTICLES: usize = 2048;
+
+/// How long the helper spins for a job before it parks: after a job, and
+/// after [`wake`] (which a step calls before its set-up of ~0.5 ms).
+const SPIN_AFTER_JOB: Duration = Duration::from_micros(100);
+const SPIN_AFTER_WAKE: Duration = Duration::from_millis(5);
+
+/// Spins on a value the other thread is about to write; after this many
+/// turns the wait also yields, in case the two share a core.
+const SPINS_BEFORE_YIELD: u32 = 1 << 14;
+
+/// A value on its own cache line, so that the two threads' counters do not
+/// bounce one line between the cores.
+#[repr(align(128))]
+#[derive(Default)]
+struct Line<T>(T);
+
+/// The job being run: a borrowed closure with its lifetime erased. The
+/// calling thread waits for the helper to finish it before the borrow ends.
+#[derive(Clone, Copy)]
+struct Job(*const (dyn Fn(&Team) + Sync));
+
+// SAFETY: the pointee is `Sync`, and it outlives every use (see `Job`).
+unsafe impl Send for Job {}
+
+/// The two threads' meeting points and partial sums.
+pub(crate) struct Team {
+    /// Barriers passed, per thread.
+    passed: [Line<AtomicU32>; 2],
+    /// Partial sums (f64 bits), two slots per thread.
+    partial: [Line<[AtomicU64; 2]>; 2],
+    /// A half panicked: the other stops at its next barrier.
+    poisoned: AtomicBool,
+}
+
+impl Team {
+    fn new() -> Self {
+        Self {
+            passed: Default::default(),
+            partial: Default::default(),
+            poisoned: AtomicBool::new(false),
+        }
+    }
+
+    /// Waits until the other thread has passed as many barriers as this
+    /// one (`part` 0 is the calling thread, 1 the helper).
+    pub(crate) fn barrier(&self, part: usize) {
+        let mine = self.passed[part].0.fetch_add(1, Ordering::AcqRel) + 1;
+        let other = &self.passed[1 - part].0;
+        let mut spins = 0u32;
+        while other.load(Ordering::Acquire) < mine {
+            if self.poisoned.load(Ordering::Relaxed) {
+                panic!("the other half of the solve panicked");
+            }
+            spins = spins.saturating_add(1);
+            if spins < SPINS_BEFORE_YIELD {
+                std::hint::spin_loop();
+            } else {
+                std::thread::yield_now();
+            }
+        }
+    }
+
+    /// The sum of both threads' `value` in `slot` (0 or 1): each passes a
+    /// barrier between writing its own and reading the other's. The two
+    /// threads add the same two numbers in the same order, so they agree
+    /// on the result to the bit. A slot is written again only after the
+    /// other thread has passed a later barrier, so after it read it.
+    pub(crate) fn sum(&self, part: usize, slot: usize, value: f64) -> f64 {
+        self.partial[part].0[slot].store(value.to_bits(), Ordering::Relaxed);
+        self.barrier(part);
+        let [a, b] =
+            [0, 1].map(|p| f64::from_bits(self.partial[p].0[slot].load(Ordering::Relaxed)));
+        a + b
+    }
+
+    fn reset(&self) {
+        for p in &self.passed {
+            p.0.store(0, Ordering::Relaxed);
+        }
+        self.poisoned.store(false, Ordering::Relaxed);
+    }
+}
+
+/// The shared helper thread and the job it is given.
+struct Helper {
+    thread: Thread,
+    /// Held by the solve using the helper.
+    claim: Mutex<()>,
+    /// Jobs started; the helper runs each once.
+    started: AtomicU64,
+    /// Jobs the helper has finished.
+    finished: AtomicU64,
+    /// Spin for a job until this many µs after `epoch` (a wake-up).
+    spin_until: AtomicU64,
+    epoch: Instant,
+    job: Mutex<Option<Job>>,
+    team: Team,
+}
+
+/// The helper once spawned; `None` inside if the thread could not be.
+static HELPER: OnceLock<Option<&'static Helper>> = OnceLock::new();
+
+/// The helper, spawned on first use; `None` if the thread could not be.
+fn helper() -> Option<&'static Helper> {
+    *HELPER.get_or_init(|| {
+        let (tx, rx) = std::sync::mpsc::channel::<&'static Helper>();
+        let spawned = std::thread::Builder::new()
+            .name("bevy_cloth solver".into())
+            .spawn(move || {
+                if let Ok(helper) = rx.recv() {
+                    helper.serve();
+                }
+            })
+            .ok()?;
+        let helper: &'static Helper = Box::leak(Box::new(Helper {
+            thread: spawned.thread().clone(),
+            claim: Mutex::new(()),
+            started: AtomicU64::new(0),
+            finished: AtomicU64::new(0),
+            spin_until: AtomicU64::new(0),
+            epoch: Instant::now(),
+            job: Mutex::new(None),
+            team: Team::new(),
+        }));
+        tx.send(helper).ok()?;
+        Some(helper)
+    })
+}
+
+impl Helper {
+    /// The helper thread's loop: wait for a job, run its half, repeat.
+    fn serve(&self) {
+        let mut done = 0u64;
+        let mut spin_from = Instant::now();
+        loop {
+            let started = self.started.load(Ordering::Acquire);
+            if started == done {
+                let woken =
+                    self.epoch + Duration::from_micros(self.spin_until.load(Ordering::Relaxed));
+                let until = woken.max(spin_from + SPIN_AFTER_JOB);
+                if Instant::now() < until {
+                    // Waiting, but giving way to any other thread that
+                    // wants this core (Bevy's pool, say).
+                    std::thread::yield_now();
+                } else {
+                    std::thread::park_timeout(Duration::from_millis(100));
+                }
+                continue;
+            }
+            let job = *self.job.lock().unwrap_or_else(|e| e.into_inner());
+            if let Some(Job(f)) = job {
+                // SAFETY: the caller of `run` keeps the closure alive until
+                // `finished` reaches `started`, which happens below.
+                let f = unsafe { &*f };
+                if catch_unwind(AssertUnwindSafe(|| f(&self.team))).is_err() {
+                    self.team.poisoned.store(true, Ordering::Relaxed);
+                }
+            }
+            done = started;
+            self.finished.store(done, Ordering::Release);
+            spin_from = Instant::now();
+        }
+    }
+}
+
+/// Wakes the helper, if there is one, to spin for a job for a few ms: a
+/// step calls this before its set-up, so that the solve finds it running.
+pub(crate) fn wake() {
+    if let Some(h) = HELPER.get().copied().flatten() {
+        let until = h.epoch.elapsed() + SPIN_AFTER_WAKE;
+        h.spin_until
+            .store(until.as_micros() as u64, Ordering::Relaxed);
+        h.thread.unpark();
+    }
+}
+
+/// Runs `here` on this thread and `there` on the helper at once when the
+/// helper can be had, else one after the other here; returns both results.
+pub(crate) fn both<A: Send, B: Send>(
+    here: impl FnOnce() -> A + Send,
+    there: impl FnOnce() -> B + Send,
+) -> (A, B) {
+    let Some(claim) = claim() else {
+        return (here(), there());
+    };
+    fn take<T>(m: &Mutex<Option<T>>) -> Option<T> {
+        m.lock().unwrap_or_else(|e| e.into_inner()).take()
+    }
+    let (here, there, theirs) = (
+        Mutex::new(Some(here)),
+        Mutex::new(Some(there)),
+        Mutex::new(None),
+    );
+    let mine = claim.run(|_, part| {
+        if part == 0 {
+            take(&here).map(|f| f())
+        } else {
+            let result = take(&there).map(|f| f());
+            *theirs.lock().unwrap_or_else(|e| e.into_inner()) = result;
+            None
+        }
+    });
+    let theirs = theirs.into_inner().unwrap_or_else(|e| e.into_inner());
+    match (mine, theirs) {
+        (Some(a), Some(b)) => (a, b),
+        _ => unreachable!("`run` runs both halves once"),
+    }
+}
+
+/// The helper, claimed for one solve.
+pub(crate) struct Claim(&'static Helper, #[allow(dead_code)] MutexGuard<'static, ()>);
+
+/// Claims the helper (spawning it on first use), or `None` when it cannot
+/// be had: no thread, or another solve is using it.
+pub(crate) fn claim() -> Option<Claim> {
+    let h = helper()?;
+    let guard = h.claim.try_lock().ok()?;
+    Some(Claim(h, guard))
+}
+
+impl Claim {
+    /// Runs `f(team, 0)` here and `f(team, 1)` on the helper, and returns
+    /// once both are done with the first's result (the helper drops its
+    /// own). A panic in either half is raised here.
+    pub(crate) fn run<R: Send>(&self, f: impl Fn(&Team, usize) -> R + Sync) -> R {
+        let h = self.0;
+        h.team.reset();
+        let theirs = |team: &Team| {
+            f(team, 1);
+        };
+        let job: &(dyn Fn(&Team) + Sync) = &theirs;
+        // SAFETY: only the lifetime is erased; this function does not
+        // return (nor unwind) before the helper has finished the job.
+        let job: *const (dyn Fn(&Team) + Sync + 'static) = unsafe { std::mem::transmute(job) };
+        *h.job.lock().unwrap_or_else(|e| e.into_inner()) = Some(Job(job));
+        let number = h.started.fetch_add(1, Ordering::AcqRel) + 1;
+        h.thread.unpark();
+        let mine = catch_unwind(AssertUnwindSafe(|| f(&h.team, 0)));
+        if mine.is_err() {
+            h.team.poisoned.store(true, Ordering::Relaxed);
+        }
+        while h.finished.load(Ordering::Acquire) < number {
+            std::hint::spin_loop();
+        }
+        *h.job.lock().unwrap_or_else(|e| e.into_inner()) = None;
+        match mine {
+            Ok(r) if !h.team.poisoned.load(Ordering::Relaxed) => r,
+            Ok(_) => panic!("the helper's half of the solve panicked"),
+            Err(e) => resume_unwind(e),
+        }
+    }
+}
