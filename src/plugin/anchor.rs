@@ -80,7 +80,7 @@ impl ClothAnchors {
     }
 
     /// Removes the anchor of `particle`. At the next step the particle is
-    /// stopped if still pinned; unpin it with [`ClothParticles::unpin`] to
+    /// stopped if still pinned; unpin it with [`Particles::unpin`](crate::sim::particles::Particles::unpin) to
     /// let it fall (or fly on with the anchor's last velocity).
     pub fn detach(&mut self, particle: u32) {
         let before = self.0.len();

@@ -9,7 +9,7 @@
 //! | [`ClothReleased`] | that grab lets go |
 //! | [`ClothAtRest`] | no free or grabbed particle has moved faster than [`REST_SPEED`] for [`REST_STEPS`] fixed steps |
 //! | [`ClothWoke`] | a resting cloth's fastest free or grabbed particle passes [`WAKE_SPEED`] |
-//! | [`ClothDiverged`] | the divergence guard redid a step (also a [`Message`](bevy::ecs::message::Message)) |
+//! | [`ClothDiverged`] | the divergence guard redid a step (also a [`Message`]) |
 //!
 //! ```
 //! # use bevy::prelude::*;

@@ -14,7 +14,7 @@ use crate::sim::settings::SimSettings;
 /// What a cloth is made of: a [`Fabric`] (cotton unless you choose), or the
 /// raw per-link constants of its [`SimSettings`].
 ///
-/// Every [`Grid`] has one; [`ClothBuilder::material`](crate::ClothBuilder::material)
+/// Every [`Cloth`] has one; [`ClothBuilder::material`](crate::ClothBuilder::material)
 /// sets it and the masses that go with it.
 /// Changing it on a live cloth changes its stiffness, bending and damping
 /// at the next step, and its masses to the new density.

@@ -96,7 +96,7 @@ pub enum ClothMeshSystems {
 }
 
 /// Area-weighted smooth vertex normals of a `cols × rows` grid whose
-/// triangles are those of [`Cloth::triangles`]. `x` in any length unit;
+/// triangles are those of [`Grid::triangles`](crate::sim::grid::Grid::triangles). `x` in any length unit;
 /// `out` receives unit vectors (+Y where a vertex has no area around it).
 pub fn grid_normals(cols: u32, rows: u32, x: &[Vec3], out: &mut [[f32; 3]]) {
     out.fill([0.0; 3]);
@@ -127,7 +127,7 @@ pub fn grid_normals(cols: u32, rows: u32, x: &[Vec3], out: &mut [[f32; 3]]) {
 
 /// A mesh for `cloth` with vertices at `positions` (the mesh's local space):
 /// positions, smooth normals, UVs in `[0, 1]²` along columns and rows, and
-/// the triangles of [`Cloth::triangles`]. Kept in both worlds so the CPU copy
+/// the triangles of [`Grid::triangles`](crate::sim::grid::Grid::triangles). Kept in both worlds so the CPU copy
 /// can be rewritten and ray-cast for picking.
 pub fn cloth_mesh(cloth: &Cloth, positions: &[Vec3]) -> Mesh {
     let mut normals = vec![[0.0; 3]; positions.len()];

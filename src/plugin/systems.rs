@@ -1,5 +1,5 @@
 //! The thin ECS layer of the step: gather a cloth's components, call
-//! [`step_cloth`], write back.
+//! [`step_guarded`], write back.
 
 use bevy::ecs::change_detection::Tick;
 use bevy::ecs::system::SystemChangeTick;

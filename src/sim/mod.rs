@@ -7,7 +7,7 @@
 //! divergence guard around it ([`guard`]), adaptive substeps
 //! ([`adaptive`]), the narrow phase and contacts ([`collision`]), creases'
 //! geometry ([`crease`]), wind on faces ([`wind`]), and the helper thread
-//! and worker pool that large steps share their work with ([`team`],
+//! and worker pool that large steps share their work with (`team`,
 //! [`workers`]).
 //!
 //! What it may import: [`bevy::math`], [`bevy::reflect`] (the types derive

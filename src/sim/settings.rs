@@ -143,7 +143,7 @@ pub struct ImplicitParams {
     /// a 64×64 solve takes about 1.2 ms rather than 2. It
     /// also lets such a cloth, with any integrator, resolve its contacts in
     /// two halves on the two threads
-    /// ([`team::SPLIT_PARTICLES`](crate::sim::team::SPLIT_PARTICLES)).
+    /// ([`SPLIT_PARTICLES`](crate::plugin::collision::SPLIT_PARTICLES)).
     /// The result is bitwise the same either way. On by default.
     pub helper_thread: bool,
     /// Most extra Newton iterations of a step
@@ -177,7 +177,7 @@ impl Default for ImplicitParams {
 /// Choi–Ko constants per link (MODEL.md §11 defaults: cotton, 1 m, 15×15).
 ///
 /// These are the raw per-link constants; a cloth whose
-/// [`ClothMaterial`](crate::sim::material::ClothMaterial) is a fabric gets them
+/// [`ClothMaterial`](crate::plugin::material::ClothMaterial) is a fabric gets them
 /// from the fabric and its spacing instead.
 #[derive(Clone, Copy, Debug, PartialEq, Reflect)]
 #[reflect(Default)]

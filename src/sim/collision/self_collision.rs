@@ -1,6 +1,6 @@
 //! Opt-in self-collision: vertex–triangle proximity within one cloth, with a
 //! spatial hash over its triangles (MODEL.md §8.3). Off unless a cloth has
-//! [`ClothSelfCollision`](super::ClothSelfCollision), as the paper leaves it
+//! [`ClothSelfCollision`](crate::plugin::collision::ClothSelfCollision), as the paper leaves it
 //! out for speed.
 
 use bevy::math::Vec3;
