@@ -96,4 +96,34 @@ pub enum ClothError {
     /// Gravity (m/s²) must be finite.
     #[error("gravity must be finite, got {0}")]
     InvalidGravity(Vec3),
+    /// A cloth mesh has no triangles, or an index list whose length is not
+    /// a multiple of 3.
+    #[error("a cloth mesh needs triangles: got {indices} indices")]
+    NoTriangles {
+        /// Indices given (vertices, for a mesh without indices).
+        indices: usize,
+    },
+    /// A cloth mesh's vertex position (m) is NaN or infinite.
+    #[error("vertex {vertex} of the cloth mesh is not finite: {position}")]
+    NonFiniteVertex {
+        /// The vertex.
+        vertex: u32,
+        /// Its position, m.
+        position: Vec3,
+    },
+    /// Every triangle of a cloth mesh has zero area or a repeated vertex.
+    #[error("every one of the {triangles} triangles of the cloth mesh is degenerate")]
+    DegenerateMesh {
+        /// Triangles given.
+        triangles: usize,
+    },
+    /// A cloth mesh welds to more particles than
+    /// [`MAX_PARTICLES`](crate::sim::grid::MAX_PARTICLES).
+    #[error("a cloth mesh of {particles} particles exceeds the limit of {max}")]
+    MeshTooLarge {
+        /// Particles after welding.
+        particles: usize,
+        /// The limit.
+        max: u32,
+    },
 }

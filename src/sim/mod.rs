@@ -6,7 +6,8 @@
 //! integrators ([`integrate`]), a step as a function ([`step`]), the
 //! divergence guard around it ([`guard`]), adaptive substeps
 //! ([`adaptive`]), the narrow phase and contacts ([`collision`]), creases'
-//! geometry ([`crease`]), wind on faces ([`wind`]), and the helper thread
+//! geometry ([`crease`]), wind on faces ([`wind`]), the particles and links of
+//! a cloth of any shape ([`topology`]), and the helper thread
 //! and worker pool that large steps share their work with (`team`,
 //! [`workers`]).
 //!
@@ -60,5 +61,6 @@ pub mod settings;
 pub(crate) mod soa;
 pub mod step;
 pub(crate) mod team;
+pub mod topology;
 pub mod wind;
 pub mod workers;

@@ -1,0 +1,345 @@
+//! Cloth of any shape: the particles and Choi–Ko links of a triangle mesh,
+//! by a rule that gives a grid's links back on a grid (`docs/mesh_links.md`
+//! draws it).
+//!
+//! 1. **Particles.** Vertices at equal positions are welded into one
+//!    particle; triangles with a repeated particle or no area are dropped,
+//!    and so are vertices no triangle uses.
+//! 2. **Type 1** is every mesh edge. An edge shared by two triangles that
+//!    form a near-planar convex quad, and that is the longest edge of both
+//!    by [`DIAGONAL_RATIO`], is the quad's diagonal: the quad's other
+//!    diagonal is added too. Diagonals go to the `shear` family, the other
+//!    edges to `structural` (on a grid: the (1,1) links and the axial ones).
+//! 3. **Type 2** links each particle `v`, across each Type 1 link `v–w`, to
+//!    the Type 1 neighbour `u` of `w` that best continues the line `v → w`,
+//!    if the turn from `v → w` to `w → u` is at most
+//!    [`MAX_CONTINUATION_ANGLE`]. Across a `structural` link it is a `bend`
+//!    link, across a `shear` link a `bend_diagonal` one.
+//!
+//! Rest lengths are the mesh's as modelled. Each unordered pair is stored
+//! once, and each family is sorted by its first particle, then its second.
+
+use std::collections::HashMap;
+
+use bevy::math::Vec3;
+
+use crate::error::ClothError;
+use crate::sim::connections::{Connections, Link};
+use crate::sim::grid::MAX_PARTICLES;
+
+/// How much longer than every other edge of its two triangles an edge must
+/// be to count as a quad's diagonal (dimensionless). A grid's diagonal is
+/// √2 times its sides; an equilateral mesh has no quads and gets no
+/// diagonals.
+pub const DIAGONAL_RATIO: f32 = 1.2;
+
+/// The largest angle between two triangles' normals (rad) for them to form
+/// a near-planar quad: 20°.
+pub const MAX_QUAD_FOLD: f32 = 20.0 * std::f32::consts::PI / 180.0;
+
+/// The largest turn (rad) from `v → w` to `w → u` for a Type 2 link `v–u`:
+/// 40°. A grid's continuation is straight and its next candidates turn
+/// 45°; around a mesh vertex of valence 5 (72° apart) the best one turns at
+/// most 36°.
+pub const MAX_CONTINUATION_ANGLE: f32 = 40.0 * std::f32::consts::PI / 180.0;
+
+/// The particles of a triangle mesh after welding, and its triangles.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct MeshTopology {
+    /// Rest positions of the particles, m.
+    pub positions: Vec<Vec3>,
+    /// The triangles that have area, as particle indices, in the mesh's
+    /// winding.
+    pub triangles: Vec<[u32; 3]>,
+    /// For each vertex of the mesh, its particle (`None` for a vertex no
+    /// triangle with area uses).
+    pub particle_of: Vec<Option<u32>>,
+    /// Edges shared by more than two triangles. They are kept (each is one
+    /// Type 1 link) and never a quad's diagonal.
+    pub non_manifold_edges: usize,
+    /// Triangles dropped for a repeated particle or no area.
+    pub degenerate_triangles: usize,
+}
+
+impl MeshTopology {
+    /// The particles of the mesh whose vertices rest at `positions` (m)
+    /// with triangles `indices` (three per triangle), or consecutive
+    /// triples of vertices when `indices` is `None`.
+    ///
+    /// Errors: no triangles ([`ClothError::NoTriangles`]), a non-finite
+    /// vertex, an index out of range, only degenerate triangles, more
+    /// particles than [`MAX_PARTICLES`].
+    pub fn new(positions: &[Vec3], indices: Option<&[u32]>) -> Result<Self, ClothError> {
+        Self::with_limit(positions, indices, MAX_PARTICLES as usize)
+    }
+
+    fn with_limit(
+        positions: &[Vec3],
+        indices: Option<&[u32]>,
+        limit: usize,
+    ) -> Result<Self, ClothError> {
+        let count = indices.map_or(positions.len(), <[u32]>::len);
+        if count < 3 || !count.is_multiple_of(3) {
+            return Err(ClothError::NoTriangles { indices: count });
+        }
+        if let Some((vertex, &position)) =
+            positions.iter().enumerate().find(|(_, p)| !p.is_finite())
+        {
+            return Err(ClothError::NonFiniteVertex {
+                vertex: vertex as u32,
+                position,
+            });
+        }
+        let vertex_count = positions.len();
+        let index = |k: usize| -> Result<usize, ClothError> {
+            let i = indices.map_or(k as u32, |ix| ix[k]);
+            if (i as usize) < vertex_count {
+                Ok(i as usize)
+            } else {
+                Err(ClothError::ParticleOutOfRange {
+                    index: i,
+                    count: vertex_count.min(u32::MAX as usize) as u32,
+                })
+            }
+        };
+        // Weld: one key per position (−0 and +0 are one).
+        let mut weld_of_key: HashMap<[u32; 3], u32> = HashMap::new();
+        let weld: Vec<u32> = positions
+            .iter()
+            .map(|p| {
+                let key = (*p + Vec3::ZERO).to_array().map(f32::to_bits);
+                let next = weld_of_key.len() as u32;
+                *weld_of_key.entry(key).or_insert(next)
+            })
+            .collect();
+        let mut welded_triangles = Vec::with_capacity(count / 3);
+        let mut degenerate = 0;
+        for t in 0..count / 3 {
+            let v = [index(3 * t)?, index(3 * t + 1)?, index(3 * t + 2)?];
+            let w = v.map(|i| weld[i]);
+            let (a, b, c) = (positions[v[0]], positions[v[1]], positions[v[2]]);
+            let longest = (b - a)
+                .length_squared()
+                .max((c - b).length_squared())
+                .max((a - c).length_squared());
+            let area2 = (b - a).cross(c - a).length_squared();
+            // Not finite for coordinates near f32::MAX: no area either.
+            let has_area = area2.is_finite() && area2 > 1e-12 * longest * longest;
+            if w[0] == w[1] || w[1] == w[2] || w[2] == w[0] || !has_area {
+                degenerate += 1;
+                continue;
+            }
+            welded_triangles.push(w);
+        }
+        if welded_triangles.is_empty() {
+            return Err(ClothError::DegenerateMesh {
+                triangles: count / 3,
+            });
+        }
+        // Particles: the welded vertices the triangles use, in the order of
+        // the mesh's vertices (which keeps the mesh's locality).
+        let mut used = vec![false; weld_of_key.len()];
+        for w in &welded_triangles {
+            for &i in w {
+                used[i as usize] = true;
+            }
+        }
+        let particles = used.iter().filter(|&&u| u).count();
+        if particles > limit {
+            return Err(ClothError::MeshTooLarge {
+                particles,
+                max: limit.min(u32::MAX as usize) as u32,
+            });
+        }
+        let mut particle_of_weld = vec![None; weld_of_key.len()];
+        let mut out = Self {
+            positions: Vec::with_capacity(particles),
+            degenerate_triangles: degenerate,
+            ..Self::default()
+        };
+        for (vertex, &w) in weld.iter().enumerate() {
+            let slot = &mut particle_of_weld[w as usize];
+            if used[w as usize] && slot.is_none() {
+                *slot = Some(out.positions.len() as u32);
+                out.positions.push(positions[vertex]);
+            }
+            out.particle_of.push(*slot);
+        }
+        out.triangles = welded_triangles
+            .iter()
+            .map(|w| w.map(|i| particle_of_weld[i as usize].unwrap_or_default()))
+            .collect();
+        out.non_manifold_edges = edges(&out.triangles)
+            .values()
+            .filter(|e| e.count > 2)
+            .count();
+        Ok(out)
+    }
+
+    /// Number of particles.
+    pub fn len(&self) -> usize {
+        self.positions.len()
+    }
+
+    /// Whether there are no particles (never for a built topology).
+    pub fn is_empty(&self) -> bool {
+        self.positions.is_empty()
+    }
+
+    /// Particle masses (kg) for a sheet of `density` kg/m²: each triangle's
+    /// mass split equally between its corners.
+    pub fn lumped_masses(&self, density: f32) -> Vec<f32> {
+        let mut masses = vec![0.0; self.positions.len()];
+        for t in &self.triangles {
+            let [a, b, c] = t.map(|i| self.positions[i as usize]);
+            let share = density * 0.5 * (b - a).cross(c - a).length() / 3.0;
+            for &i in t {
+                masses[i as usize] += share;
+            }
+        }
+        masses
+    }
+
+    /// The Type 1 and Type 2 links of the mesh (module docs), with rest
+    /// lengths from [`positions`](Self::positions) (m). `columns` is 0: a
+    /// mesh cloth's forces are evaluated link by link, never in grid bands.
+    pub fn connections(&self) -> Connections {
+        let x = &self.positions;
+        let edges = edges(&self.triangles);
+        let mut keys: Vec<(u32, u32)> = edges.keys().copied().collect();
+        keys.sort_unstable();
+        // Every mesh edge first, so that a quad's other diagonal that is
+        // also a mesh edge keeps that edge's family.
+        let mut type1: HashMap<(u32, u32), bool> = HashMap::with_capacity(2 * keys.len());
+        let mut added = Vec::new();
+        for &(a, b) in &keys {
+            let edge = edges[&(a, b)];
+            let diagonal = edge.count == 2 && self.is_diagonal(a, b, edge.opposite);
+            type1.insert((a, b), diagonal);
+            if diagonal {
+                let [c, d] = edge.opposite;
+                added.push((c.min(d), c.max(d)));
+            }
+        }
+        for pair in added {
+            type1.entry(pair).or_insert(true);
+        }
+        let mut out = Connections::default();
+        let mut neighbours: Vec<Vec<(u32, bool)>> = vec![Vec::new(); x.len()];
+        for (&(a, b), &diagonal) in &type1 {
+            let link = Link::from_rest(a, b, x);
+            if diagonal {
+                out.shear.push(link);
+            } else {
+                out.structural.push(link);
+            }
+            neighbours[a as usize].push((b, diagonal));
+            neighbours[b as usize].push((a, diagonal));
+        }
+        for list in &mut neighbours {
+            list.sort_unstable();
+        }
+        let cos_max = MAX_CONTINUATION_ANGLE.cos();
+        let mut type2: HashMap<(u32, u32), bool> = HashMap::new();
+        for (v, around) in neighbours.iter().enumerate() {
+            let v = v as u32;
+            for &(w, diagonal) in around {
+                let along = (x[w as usize] - x[v as usize]).normalize_or_zero();
+                let best = neighbours[w as usize]
+                    .iter()
+                    .filter(|&&(u, _)| u != v)
+                    .map(|&(u, _)| {
+                        (
+                            u,
+                            along.dot((x[u as usize] - x[w as usize]).normalize_or_zero()),
+                        )
+                    })
+                    .filter(|&(_, cos)| cos >= cos_max)
+                    .max_by(|p, q| p.1.total_cmp(&q.1).then(q.0.cmp(&p.0)));
+                if let Some((u, _)) = best {
+                    let pair = (v.min(u), v.max(u));
+                    if !type1.contains_key(&pair) {
+                        type2.entry(pair).or_insert(diagonal);
+                    }
+                }
+            }
+        }
+        for (&(a, b), &diagonal) in &type2 {
+            let link = Link::from_rest(a, b, x);
+            if diagonal {
+                out.bend_diagonal.push(link);
+            } else {
+                out.bend.push(link);
+            }
+        }
+        for family in [
+            &mut out.structural,
+            &mut out.shear,
+            &mut out.bend,
+            &mut out.bend_diagonal,
+        ] {
+            family.sort_unstable_by_key(|l| (l.a, l.b));
+        }
+        out
+    }
+
+    /// Whether edge `a–b`, shared by the triangles whose third particles are
+    /// `c` and `d`, is the diagonal of a near-planar convex quad and the
+    /// longest edge of both triangles by [`DIAGONAL_RATIO`].
+    fn is_diagonal(&self, a: u32, b: u32, [c, d]: [u32; 2]) -> bool {
+        let x = |i: u32| self.positions[i as usize];
+        let (a, b, c, d) = (x(a), x(b), x(c), x(d));
+        let shared = (b - a).length();
+        let others = [(c - a), (c - b), (d - a), (d - b)].map(Vec3::length);
+        if others.iter().any(|&o| shared < DIAGONAL_RATIO * o) {
+            return false;
+        }
+        let e = b - a;
+        let (n1, n2) = (
+            e.cross(c - a).normalize_or_zero(),
+            (d - a).cross(e).normalize_or_zero(),
+        );
+        if n1.dot(n2) < MAX_QUAD_FOLD.cos() {
+            return false;
+        }
+        // Convex: the other diagonal crosses the shared edge inside it.
+        let across = (n1 + n2).cross(e);
+        let (sc, sd) = ((c - a).dot(across), (d - a).dot(across));
+        if sc * sd >= 0.0 {
+            return false;
+        }
+        let hit = c + (d - c) * (sc / (sc - sd));
+        let t = (hit - a).dot(e) / e.length_squared();
+        t > 0.0 && t < 1.0
+    }
+}
+
+/// A mesh edge: how many triangles share it, and the third particle of the
+/// first two.
+#[derive(Clone, Copy, Debug)]
+struct Edge {
+    count: u32,
+    opposite: [u32; 2],
+}
+
+/// Every edge of `triangles`, keyed by its particles in increasing order.
+fn edges(triangles: &[[u32; 3]]) -> HashMap<(u32, u32), Edge> {
+    let mut out: HashMap<(u32, u32), Edge> = HashMap::with_capacity(3 * triangles.len() / 2);
+    for t in triangles {
+        for k in 0..3 {
+            let (a, b, c) = (t[k], t[(k + 1) % 3], t[(k + 2) % 3]);
+            let edge = out.entry((a.min(b), a.max(b))).or_insert(Edge {
+                count: 0,
+                opposite: [c; 2],
+            });
+            if edge.count == 1 {
+                edge.opposite[1] = c;
+            }
+            edge.count += 1;
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests;
