@@ -1,6 +1,7 @@
 //! `cargo bench --bench step`: force evaluation and one step per integrator
 //! at 15×15, 64×64 and 128×128 (cotton, MODEL.md §11), and whole frames of
-//! many cloths, a large one and a cloth on a mesh collider. The game frame
+//! many cloths, a large one and a cloth on a mesh collider; a disc cloth
+//! against a grid of as many particles. The game frame
 //! of a 64×64 cloth on a sphere is `cargo bench --bench frame`.
 
 mod common;
@@ -19,7 +20,9 @@ use bevy_cloth::sim::integrate::StepBuffers;
 use bevy_cloth::sim::model::bands::internal_forces_banded;
 use bevy_cloth::sim::model::streams::ForceStreams;
 use bevy_cloth::sim::model::{internal_forces, internal_forces_streamed};
+use bevy_cloth::sim::particles::Particles;
 use bevy_cloth::sim::step::step_cloth;
+use bevy_cloth::sim::topology::{MeshTopology, disc};
 use bevy_cloth::sim::workers::Workers;
 use common::headless;
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
@@ -158,6 +161,84 @@ fn steps(c: &mut Criterion) {
     group.finish();
 }
 
+/// One implicit frame (backward Euler, 1/60 s) of a cloth of any shape
+/// against a grid of about as many particles: a 4,000-particle disc (36
+/// rings, 1.2 m across, every inner particle moved by up to a quarter of a
+/// spacing) and the 64×64 grid of the paper's scene, both cotton, both
+/// settled for 0.2 s first.
+fn mesh_frame(c: &mut Criterion) {
+    let mut group = c.benchmark_group("mesh_vs_grid");
+    group
+        .measurement_time(Duration::from_secs(3))
+        .sample_size(30);
+    let rings = 36;
+    let (mut positions, indices) = disc(0.6, rings);
+    let mut seed = 0x2545_f491_4f6c_dd1d_u64;
+    let mut unit = move || {
+        seed ^= seed << 13;
+        seed ^= seed >> 7;
+        seed ^= seed << 17;
+        (seed >> 40) as f32 / (1u64 << 24) as f32 - 0.5
+    };
+    let rim = positions.len() - 6 * rings as usize;
+    let spacing = 0.6 / rings as f32;
+    for (k, p) in positions.iter_mut().enumerate() {
+        if k < rim {
+            *p += Vec3::new(unit(), 0.0, unit()) * 0.25 * spacing;
+        }
+        p.y += 1.0;
+    }
+    let topology = MeshTopology::new(&positions, Some(&indices)).unwrap();
+    let mut disc_particles =
+        Particles::new(topology.positions.clone(), topology.lumped_masses(0.15));
+    for k in 0..6 {
+        disc_particles.pin(rim + k * rings as usize);
+    }
+    let grid = settled(64);
+    let cases = [
+        ("disc_3997", disc_particles, topology.connections(), spacing),
+        (
+            "grid_64x64",
+            grid.particles.0.clone(),
+            grid.connections.0.clone(),
+            grid.cloth.spacing(),
+        ),
+    ];
+    for (name, start, links, h) in cases {
+        let mut settings = SimSettings::default();
+        Fabric::COTTON.apply(&mut settings, h);
+        let mut buffers = StepBuffers::new(start.len());
+        let mut settled = start.clone();
+        for _ in 0..12 {
+            step_cloth(
+                &mut settled,
+                &links,
+                &settings,
+                &[],
+                &mut buffers,
+                1.0 / 60.0,
+            );
+        }
+        let mut particles = settled.clone();
+        group.bench_function(name, |b| {
+            b.iter(|| {
+                particles.positions.copy_from_slice(&settled.positions);
+                particles.velocities.copy_from_slice(&settled.velocities);
+                buffers.implicit.reset_history();
+                step_cloth(
+                    &mut particles,
+                    &links,
+                    &settings,
+                    &[],
+                    &mut buffers,
+                    1.0 / 60.0,
+                )
+            })
+        });
+    }
+    group.finish();
+}
+
 /// [`headless`] with `cloths` spawned and five frames run.
 fn settled_app(settings: ClothSettings, cloths: impl IntoIterator<Item = ClothBundle>) -> App {
     let mut app = headless(settings);
@@ -248,5 +329,5 @@ fn mesh_collider(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, forces, steps, mesh_collider, scale);
+criterion_group!(benches, forces, steps, mesh_frame, mesh_collider, scale);
 criterion_main!(benches);

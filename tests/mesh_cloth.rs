@@ -14,17 +14,14 @@ use bevy_cloth::sim::integrate::StepBuffers;
 use bevy_cloth::sim::integrate::implicit::{Hold, SolveContact};
 use bevy_cloth::sim::particles::Particles;
 use bevy_cloth::sim::step::{ContactHook, NoContacts, Substep};
-use bevy_cloth::sim::topology::MeshTopology;
+use bevy_cloth::sim::topology::{MeshTopology, disc};
 
 const DT: f32 = 1.0 / 60.0;
 
-/// A disc of `radius` m at height `y` m in the xz plane: a centre and
-/// `rings` rings of 6, 12, … particles, each ring turned against the last
-/// and, with `jitter`, every inner particle moved by up to `jitter` of a
-/// spacing, so the triangles are irregular.
-fn disc(rings: usize, radius: f32, y: f32, jitter: f32) -> (Vec<Vec3>, Vec<u32>) {
-    let mut positions = vec![Vec3::new(0.0, y, 0.0)];
-    let mut starts = vec![0u32];
+/// [`disc`] of `radius` m lifted to height `y` m with every inner particle
+/// moved by up to `jitter` of a spacing, so the triangles are irregular.
+fn jittered_disc(rings: usize, radius: f32, y: f32, jitter: f32) -> (Vec<Vec3>, Vec<u32>) {
+    let (mut positions, indices) = disc(radius, rings as u32);
     let spacing = radius / rings as f32;
     let mut seed = 0x9e37_79b9_7f4a_7c15_u64;
     let mut unit = move || {
@@ -33,47 +30,19 @@ fn disc(rings: usize, radius: f32, y: f32, jitter: f32) -> (Vec<Vec3>, Vec<u32>)
         seed ^= seed << 17;
         (seed >> 40) as f32 / (1u64 << 24) as f32 - 0.5
     };
-    for r in 1..=rings {
-        starts.push(positions.len() as u32);
-        let count = 6 * r;
-        for k in 0..count {
-            let a = (k as f32 + 0.4 * (r % 2) as f32) * std::f32::consts::TAU / count as f32;
-            let mut p = Vec3::new(a.cos(), 0.0, a.sin()) * (r as f32 * spacing);
-            if r < rings {
-                p += Vec3::new(unit(), 0.0, unit()) * jitter * spacing;
-            }
-            positions.push(p + Vec3::Y * y);
+    let rim = positions.len() - 6 * rings;
+    for (k, p) in positions.iter_mut().enumerate() {
+        if k < rim {
+            *p += Vec3::new(unit(), 0.0, unit()) * jitter * spacing;
         }
-    }
-    let ring = |r: usize, k: usize| -> u32 {
-        if r == 0 {
-            0
-        } else {
-            starts[r] + (k % (6 * r)) as u32
-        }
-    };
-    let mut indices = Vec::new();
-    for r in 0..rings {
-        let (inner, outer) = ((6 * r).max(1), 6 * (r + 1));
-        let (mut i, mut o) = (0, 0);
-        while i < inner || o < outer {
-            if i >= inner || (o as f32 / outer as f32) <= (i as f32 / inner as f32) {
-                indices.extend([ring(r, i), ring(r + 1, o), ring(r + 1, o + 1)]);
-                o += 1;
-            } else {
-                if r > 0 {
-                    indices.extend([ring(r, i), ring(r + 1, o), ring(r, i + 1)]);
-                }
-                i += 1;
-            }
-        }
+        p.y += y;
     }
     (positions, indices)
 }
 
 /// The particles (cotton, 0.15 kg/m²) and links of a disc.
 fn cloth(rings: usize, radius: f32, y: f32, jitter: f32) -> (Particles, Connections) {
-    let (positions, indices) = disc(rings, radius, y, jitter);
+    let (positions, indices) = jittered_disc(rings, radius, y, jitter);
     let t = MeshTopology::new(&positions, Some(&indices)).unwrap();
     let masses = t.lumped_masses(0.15);
     (Particles::new(t.positions.clone(), masses), t.connections())

@@ -314,6 +314,60 @@ impl MeshTopology {
     }
 }
 
+/// A disc of `radius` m in the xz plane, centred on the origin, as a
+/// triangle mesh: a centre and `rings` rings of 6, 12, 18, … vertices
+/// (`1 + 3·rings·(rings + 1)` in all), each ring turned against the one
+/// inside it, joined by triangles close to equilateral. Positions (m) and
+/// indices, counter-clockwise seen from +y.
+///
+/// ```
+/// use bevy_cloth::sim::topology::{MeshTopology, disc};
+/// let (positions, indices) = disc(0.5, 8);
+/// assert_eq!(positions.len(), 1 + 3 * 8 * 9);
+/// let links = MeshTopology::new(&positions, Some(&indices)).unwrap().connections();
+/// assert!(links.type2_count() > 0);
+/// ```
+pub fn disc(radius: f32, rings: u32) -> (Vec<Vec3>, Vec<u32>) {
+    let rings = rings.max(1) as usize;
+    let spacing = radius / rings as f32;
+    let mut positions = vec![Vec3::ZERO];
+    let mut starts = vec![0u32];
+    for r in 1..=rings {
+        starts.push(positions.len() as u32);
+        let count = 6 * r;
+        positions.extend((0..count).map(|k| {
+            let a = (k as f32 + 0.4 * (r % 2) as f32) * std::f32::consts::TAU / count as f32;
+            Vec3::new(a.cos(), 0.0, a.sin()) * (r as f32 * spacing)
+        }));
+    }
+    let at = |r: usize, k: usize| -> u32 {
+        if r == 0 {
+            0
+        } else {
+            starts[r] + (k % (6 * r)) as u32
+        }
+    };
+    let mut indices = Vec::with_capacity(3 * 6 * rings * rings);
+    for r in 0..rings {
+        // Walk ring r (6r vertices, the centre for r = 0) and ring r + 1
+        // around together, always advancing the one that lags.
+        let (inner, outer) = ((6 * r).max(1), 6 * (r + 1));
+        let (mut i, mut o) = (0, 0);
+        while i < inner || o < outer {
+            if i >= inner || (o as f32 / outer as f32) <= (i as f32 / inner as f32) {
+                indices.extend([at(r, i), at(r + 1, o + 1), at(r + 1, o)]);
+                o += 1;
+            } else {
+                if r > 0 {
+                    indices.extend([at(r, i), at(r, i + 1), at(r + 1, o)]);
+                }
+                i += 1;
+            }
+        }
+    }
+    (positions, indices)
+}
+
 /// A mesh edge: how many triangles share it, and the third particle of the
 /// first two.
 #[derive(Clone, Copy, Debug)]

@@ -221,61 +221,37 @@ proptest! {
     }
 }
 
-/// An irregular disc: rings of particles, more on each ring, joined by
-/// triangles; every link joins particles of the disc and Type 2 links
-/// reach across the centre and around the rings.
+/// A disc: every triangle faces +y, and every interior particle has a
+/// Type 2 link; every link joins two of its particles.
 #[test]
-fn an_irregular_disc_has_type_2_links_almost_everywhere_inside() {
+fn a_disc_has_type_2_links_at_every_interior_particle() {
     let rings = 8;
-    let mut positions = vec![Vec3::ZERO];
-    let mut starts = vec![0u32];
-    for r in 1..=rings {
-        starts.push(positions.len() as u32);
-        let count = 6 * r;
-        positions.extend((0..count).map(|k| {
-            let a = (k as f32 + 0.3 * (r % 2) as f32) * std::f32::consts::TAU / count as f32;
-            Vec3::new(a.cos(), 0.0, a.sin()) * (r as f32 / rings as f32)
-        }));
-    }
-    let mut indices = Vec::new();
-    let ring = |r: usize, k: usize| -> u32 {
-        if r == 0 {
-            0
-        } else {
-            starts[r] + (k % (6 * r)) as u32
-        }
-    };
-    for r in 0..rings {
-        // Ring r (6r particles, 1 for the centre) to ring r + 1 (6r + 6),
-        // by walking both around in step.
-        let (inner, outer) = ((6 * r).max(1), 6 * (r + 1));
-        let (mut i, mut o) = (0, 0);
-        while i < inner || o < outer {
-            let advance_outer =
-                i >= inner || (o as f32 / outer as f32) <= (i as f32 / inner as f32);
-            if advance_outer {
-                indices.extend([ring(r, i), ring(r + 1, o), ring(r + 1, o + 1)]);
-                o += 1;
-            } else if r > 0 {
-                indices.extend([ring(r, i), ring(r + 1, o), ring(r, i + 1)]);
-                i += 1;
-            } else {
-                i += 1;
-            }
-        }
-    }
+    let (positions, indices) = disc(1.0, rings);
+    assert_eq!(positions.len(), 1 + 3 * 8 * 9);
     let t = MeshTopology::new(&positions, Some(&indices)).unwrap();
     assert_eq!(t.len(), positions.len());
-    assert_eq!(t.non_manifold_edges, 0);
+    assert_eq!((t.non_manifold_edges, t.degenerate_triangles), (0, 0));
+    for tri in &t.triangles {
+        let [a, b, c] = tri.map(|i| t.positions[i as usize]);
+        assert!((b - a).cross(c - a).y > 0.0, "{tri:?}");
+    }
+    // Area 6·(√3/4)… close to π: the lumped masses add up to the sheet.
+    let mass: f32 = t.lumped_masses(1.0).iter().sum();
+    assert!((mass - std::f32::consts::PI).abs() < 0.1, "{mass}");
     let links = t.connections();
-    // Each interior particle has a Type 2 link; boundary ones may not.
     let mut has = vec![false; t.len()];
     for l in links.type2() {
         has[l.a as usize] = true;
         has[l.b as usize] = true;
     }
-    let interior = starts[rings] as usize;
+    let interior = positions.len() - 6 * rings as usize;
     let missing = (0..interior).filter(|&p| !has[p]).count();
-    assert!(missing == 0, "{missing} interior particles without Type 2");
+    assert_eq!(missing, 0, "interior particles without Type 2");
     assert!(links.type2_count() > t.len(), "{}", links.type2_count());
+    // Rims have no quads here: the triangles are near-equilateral.
+    // Type 1 is every mesh edge (Euler: 3V − 3 − boundary vertices) plus
+    // one added diagonal per quad, whose split diagonal is `shear` too.
+    let edges = 3 * t.len() - 3 - 6 * rings as usize;
+    assert_eq!(links.shear.len() % 2, 0);
+    assert_eq!(links.structural.len() + links.shear.len() / 2, edges);
 }
