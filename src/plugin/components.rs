@@ -10,7 +10,7 @@ use bevy::prelude::{
 };
 
 use crate::sim::connections::{Connections, max_strain};
-use crate::sim::grid::Grid;
+use crate::sim::grid::{Faces, Grid};
 use crate::sim::particles::Particles;
 use crate::sim::settings::{ClothModel, Integrator, SimSettings};
 
@@ -26,6 +26,20 @@ use crate::sim::settings::{ClothModel, Integrator, SimSettings};
 #[derive(Component, Clone, Debug, PartialEq, Reflect, Deref, DerefMut)]
 #[reflect(Component)]
 pub struct Cloth(pub Grid);
+
+impl Faces for Cloth {
+    fn face_count(&self) -> usize {
+        self.0.face_count()
+    }
+
+    fn face(&self, t: u32) -> [u32; 3] {
+        self.0.face(t)
+    }
+
+    fn cell_size(&self) -> f32 {
+        self.0.cell_size()
+    }
+}
 
 /// Positions (m), velocities (m/s) and masses (kg) of a cloth's particles:
 /// the cloth entity's [`Particles`], which it dereferences to.

@@ -96,6 +96,40 @@ impl Grid {
     }
 }
 
+/// The triangles of a cloth, a grid's or a mesh's: what wind and
+/// self-collision act on.
+pub trait Faces {
+    /// Number of triangles.
+    fn face_count(&self) -> usize;
+
+    /// Triangle `t` (`t < face_count()`), as three particle indices.
+    fn face(&self, t: u32) -> [u32; 3];
+
+    /// The side (m) of self-collision's spatial hash cells, of the order of
+    /// the longest rest edge, so that a triangle spans few cells.
+    fn cell_size(&self) -> f32;
+
+    /// Every triangle, in order.
+    fn faces(&self) -> impl Iterator<Item = [u32; 3]> + '_ {
+        (0..self.face_count() as u32).map(|t| self.face(t))
+    }
+}
+
+impl Faces for Grid {
+    fn face_count(&self) -> usize {
+        self.triangle_count()
+    }
+
+    fn face(&self, t: u32) -> [u32; 3] {
+        self.triangle(t)
+    }
+
+    /// The larger of the spacings along the columns and along the rows, m.
+    fn cell_size(&self) -> f32 {
+        (self.size.x / (self.cols - 1) as f32).max(self.size.y / (self.rows - 1) as f32)
+    }
+}
+
 /// A corner of the grid: top = row 0, left = column 0.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Reflect)]
 pub enum GridCorner {

@@ -25,7 +25,7 @@ use bevy::math::Vec3;
 
 use crate::error::ClothError;
 use crate::sim::connections::{Connections, Link};
-use crate::sim::grid::MAX_PARTICLES;
+use crate::sim::grid::{Faces, MAX_PARTICLES};
 
 /// How much longer than every other edge of its two triangles an edge must
 /// be to count as a quad's diagonal (dimensionless). A grid's diagonal is
@@ -186,6 +186,16 @@ impl MeshTopology {
         self.positions.is_empty()
     }
 
+    /// The particles whose rest position (m) satisfies `pin`, in increasing
+    /// order: the pins of a mesh cloth chosen by place (`|p| p.y > 0.99`
+    /// pins a top edge at 1 m). Pins by vertex go through
+    /// [`particle_of`](Self::particle_of).
+    pub fn particles_where(&self, mut pin: impl FnMut(Vec3) -> bool) -> Vec<u32> {
+        (0..self.positions.len() as u32)
+            .filter(|&p| pin(self.positions[p as usize]))
+            .collect()
+    }
+
     /// Particle masses (kg) for a sheet of `density` kg/m²: each triangle's
     /// mass split equally between its corners.
     pub fn lumped_masses(&self, density: f32) -> Vec<f32> {
@@ -311,6 +321,26 @@ impl MeshTopology {
         let hit = c + (d - c) * (sc / (sc - sd));
         let t = (hit - a).dot(e) / e.length_squared();
         t > 0.0 && t < 1.0
+    }
+}
+
+impl Faces for MeshTopology {
+    fn face_count(&self) -> usize {
+        self.triangles.len()
+    }
+
+    fn face(&self, t: u32) -> [u32; 3] {
+        self.triangles[t as usize]
+    }
+
+    /// The longest rest edge, m.
+    fn cell_size(&self) -> f32 {
+        let x = &self.positions;
+        self.triangles
+            .iter()
+            .flat_map(|&[a, b, c]| [(a, b), (b, c), (c, a)])
+            .map(|(a, b)| x[a as usize].distance(x[b as usize]))
+            .fold(0.0, f32::max)
     }
 }
 

@@ -19,7 +19,7 @@ use bevy::math::Vec3;
 use bevy::reflect::Reflect;
 use bevy::reflect::std_traits::ReflectDefault;
 
-use crate::sim::grid::Grid;
+use crate::sim::grid::Faces;
 
 /// The air around a cloth.
 ///
@@ -79,9 +79,16 @@ impl Wind {
     }
 }
 
-/// Adds the wind forces (N) on every triangle of `cloth` to `f`, for air
-/// moving at `air` m/s.
-pub fn wind_forces(cloth: &Grid, wind: &Wind, air: Vec3, x: &[Vec3], v: &[Vec3], f: &mut [Vec3]) {
+/// Adds the wind forces (N) on every triangle of `cloth` (a grid or a mesh)
+/// to `f`, for air moving at `air` m/s.
+pub fn wind_forces(
+    cloth: &impl Faces,
+    wind: &Wind,
+    air: Vec3,
+    x: &[Vec3],
+    v: &[Vec3],
+    f: &mut [Vec3],
+) {
     face_forces(cloth, wind, air, (x, v), f, None);
 }
 
@@ -100,7 +107,7 @@ pub fn wind_forces(cloth: &Grid, wind: &Wind, air: Vec3, x: &[Vec3], v: &[Vec3],
 /// it is.
 /// `inverse_masses` in 1/kg; `scratch` holds one drag rate per particle.
 pub fn step_wind_forces(
-    cloth: &Grid,
+    cloth: &impl Faces,
     wind: &Wind,
     air: Vec3,
     (x, v, inverse_masses): (&[Vec3], &[Vec3], &[f32]),
@@ -123,7 +130,7 @@ pub fn step_wind_forces(
 /// The forces (N) on every triangle into `f`, and with `drag`, each
 /// particle's share of `|F|/|v|` (N·s/m) into it.
 fn face_forces(
-    cloth: &Grid,
+    cloth: &impl Faces,
     wind: &Wind,
     air: Vec3,
     (x, v): (&[Vec3], &[Vec3]),
@@ -131,7 +138,7 @@ fn face_forces(
     mut drag: Option<&mut Vec<f32>>,
 ) {
     let half_rho = 0.5 * wind.density;
-    for [a, b, c] in cloth.triangle_iter() {
+    for [a, b, c] in cloth.faces() {
         let (a, b, c) = (a as usize, b as usize, c as usize);
         let cross = (x[b] - x[a]).cross(x[c] - x[a]);
         let double_area = cross.length();

@@ -7,7 +7,7 @@ use bevy::math::Vec3;
 
 use super::contact::Counts;
 use super::trimesh::closest_point_on_triangle;
-use crate::sim::grid::Grid;
+use crate::sim::grid::Faces;
 
 /// Reusable buffers of the spatial hash (no allocation once warm).
 #[derive(Clone, Debug, Default)]
@@ -46,7 +46,7 @@ fn barycentric(c: Vec3, [a, b, d]: [Vec3; 3]) -> [f32; 3] {
 /// between the particle and the triangle's corners (momentum is conserved),
 /// and their approaching normal velocity is removed. `x` in m, `v` in m/s.
 pub fn self_collide(
-    cloth: &Grid,
+    cloth: &impl Faces,
     x: &mut [Vec3],
     v: &mut [Vec3],
     inverse_masses: &[f32],
@@ -54,13 +54,11 @@ pub fn self_collide(
     buffers: &mut SelfCollisionBuffers,
 ) -> Counts {
     let mut counts = Counts::default();
-    let spacing =
-        (cloth.size.x / (cloth.cols - 1) as f32).max(cloth.size.y / (cloth.rows - 1) as f32);
-    let cell = spacing.max(2.0 * thickness);
+    let cell = cloth.cell_size().max(2.0 * thickness);
     let inv_cell = 1.0 / cell;
     let entries = &mut buffers.entries;
     entries.clear();
-    for (t, tri) in cloth.triangle_iter().enumerate() {
+    for (t, tri) in cloth.faces().enumerate() {
         let [a, b, c] = tri.map(|p| x[p as usize]);
         let lo = cell_of(a.min(b).min(c) - thickness, inv_cell);
         let hi = cell_of(a.max(b).max(c) + thickness, inv_cell);
@@ -80,7 +78,7 @@ pub fn self_collide(
         let from = entries.partition_point(|e| e.0 < k);
         let mut e = from;
         while e < entries.len() && entries[e].0 == k {
-            let tri = cloth.triangle(entries[e].1);
+            let tri = cloth.face(entries[e].1);
             e += 1;
             if tri.contains(&(p as u32)) {
                 continue;

@@ -238,6 +238,10 @@ fn a_disc_has_type_2_links_at_every_interior_particle() {
     // Area 6·(√3/4)… close to π: the lumped masses add up to the sheet.
     let mass: f32 = t.lumped_masses(1.0).iter().sum();
     assert!((mass - std::f32::consts::PI).abs() < 0.1, "{mass}");
+    // Pins by place: the rim of 48 particles.
+    let rim = t.particles_where(|p| p.length() > 0.999);
+    assert_eq!(rim.len(), 6 * rings as usize);
+    assert!(rim.windows(2).all(|w| w[0] < w[1]));
     let links = t.connections();
     let mut has = vec![false; t.len()];
     for l in links.type2() {
@@ -254,4 +258,52 @@ fn a_disc_has_type_2_links_at_every_interior_particle() {
     let edges = 3 * t.len() - 3 - 6 * rings as usize;
     assert_eq!(links.shear.len() % 2, 0);
     assert_eq!(links.structural.len() + links.shear.len() / 2, edges);
+}
+
+/// Wind and self-collision act on a mesh's faces as on a grid's: face-on
+/// air pushes a flat disc with the drag of its area, and a particle pushed
+/// through the disc is put back out.
+#[test]
+fn wind_and_self_collision_act_on_a_meshs_faces() {
+    use crate::sim::collision::self_collision::{SelfCollisionBuffers, self_collide};
+    use crate::sim::wind::{Wind, wind_forces};
+    let (positions, indices) = disc(0.5, 6);
+    let t = MeshTopology::new(&positions, Some(&indices)).unwrap();
+    let area: f32 = t
+        .faces()
+        .map(|[a, b, c]| {
+            let [a, b, c] = [a, b, c].map(|i| t.positions[i as usize]);
+            0.5 * (b - a).cross(c - a).length()
+        })
+        .sum();
+    let wind = Wind {
+        velocity: Vec3::Y * 10.0,
+        ..Default::default()
+    };
+    let v = vec![Vec3::ZERO; t.len()];
+    let mut f = vec![Vec3::ZERO; t.len()];
+    wind_forces(&t, &wind, wind.velocity, &t.positions, &v, &mut f);
+    // Face-on: ½ρC_d A |v|² along the wind, no lift.
+    let total: Vec3 = f.iter().sum();
+    let drag = 0.5 * wind.density * wind.drag * area * 100.0;
+    assert!(
+        (total - Vec3::Y * drag).length() < 1e-3 * drag,
+        "{total} vs {drag}"
+    );
+    // A rim particle folded over to 4 mm above the middle is put a
+    // thickness (1 cm) from the triangle under it, which moves too.
+    let mut x = t.positions.clone();
+    let mut v = vec![Vec3::ZERO; t.len()];
+    let w = vec![1.0; t.len()];
+    let rim = t.len() - 1;
+    x[rim] = Vec3::new(0.01, 0.004, 0.02);
+    let mut buffers = SelfCollisionBuffers::default();
+    let spacing = 0.5 / 6.0;
+    assert!(t.cell_size() > spacing && t.cell_size() < 2.0 * spacing);
+    let counts = self_collide(&t, &mut x, &mut v, &w, 0.01, &mut buffers);
+    assert!(counts.contacts > 0);
+    let below = (0..7).map(|p| x[p].y).fold(f32::NEG_INFINITY, f32::max);
+    let gap = x[rim].y - below;
+    assert!(gap > 0.009, "{gap}");
+    assert!(x.iter().all(|p| p.is_finite()));
 }
