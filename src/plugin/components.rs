@@ -42,7 +42,9 @@ impl Faces for Cloth {
 }
 
 /// Positions (m), velocities (m/s) and masses (kg) of a cloth's particles:
-/// the cloth entity's [`Particles`], which it dereferences to.
+/// the cloth entity's [`Particles`], which it dereferences to. To borrow two
+/// of its arrays mutably at once, go through the field:
+/// `let p = &mut particles.0;`.
 ///
 /// ```
 /// # use bevy::prelude::*;
