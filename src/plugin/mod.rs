@@ -40,8 +40,9 @@ use crate::plugin::components::{
 };
 use crate::plugin::material::ClothMaterial;
 
-/// Adds cloth simulation: the [`ClothDefaults`] resource, the [`ClothSystems`](schedule::ClothSystems)
-/// sets in `FixedUpdate` and the mesh sync in `PostUpdate`.
+/// Adds cloth simulation: the [`ClothDefaults`] resource, the
+/// [`ClothSystems`](schedule::ClothSystems) sets in `FixedUpdate` and the
+/// mesh sync in `PostUpdate`.
 ///
 /// Needs Bevy's time (`MinimalPlugins` or `DefaultPlugins`); anchors need
 /// `TransformPlugin`; meshes need `Assets<Mesh>` (asset and mesh plugins).
