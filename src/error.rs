@@ -117,6 +117,10 @@ pub enum ClothError {
         /// Triangles given.
         triangles: usize,
     },
+    /// A Bevy mesh a cloth cannot be made from (not a triangle list, no
+    /// `Float32x3` positions, no vertex colours to read pins from).
+    #[error("unsupported cloth mesh: {0}")]
+    UnsupportedMesh(&'static str),
     /// A cloth mesh welds to more particles than
     /// [`MAX_PARTICLES`](crate::sim::grid::MAX_PARTICLES).
     #[error("a cloth mesh of {particles} particles exceeds the limit of {max}")]

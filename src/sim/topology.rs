@@ -2,8 +2,8 @@
 //! by a rule that gives a grid's links back on a grid (`docs/mesh_links.md`
 //! draws it).
 //!
-//! 1. **Particles.** Vertices at equal positions are welded into one
-//!    particle; triangles with a repeated particle or no area are dropped,
+//! 1. **Particles.** Vertices at the same position (within
+//!    [`WELD_TOLERANCE`] of the mesh's size) are welded into one particle; triangles with a repeated particle or no area are dropped,
 //!    and so are vertices no triangle uses.
 //! 2. **Type 1** is every mesh edge. An edge shared by two triangles that
 //!    form a near-planar convex quad, and that is the longest edge of both
@@ -32,6 +32,11 @@ use crate::sim::grid::{Faces, MAX_PARTICLES};
 /// √2 times its sides; an equilateral mesh has no quads and gets no
 /// diagonals.
 pub const DIAGONAL_RATIO: f32 = 1.2;
+
+/// How close two vertices weld, as a fraction of the mesh's size (its
+/// bounding box's diagonal): 10⁻⁶, enough for a seam whose two sides were
+/// computed separately (a UV sphere's, where `sin 2π ≠ 0`).
+pub const WELD_TOLERANCE: f32 = 1e-6;
 
 /// The largest angle between two triangles' normals (rad) for them to form
 /// a near-planar quad: 20°.
@@ -102,16 +107,7 @@ impl MeshTopology {
                 })
             }
         };
-        // Weld: one key per position (−0 and +0 are one).
-        let mut weld_of_key: HashMap<[u32; 3], u32> = HashMap::new();
-        let weld: Vec<u32> = positions
-            .iter()
-            .map(|p| {
-                let key = (*p + Vec3::ZERO).to_array().map(f32::to_bits);
-                let next = weld_of_key.len() as u32;
-                *weld_of_key.entry(key).or_insert(next)
-            })
-            .collect();
+        let (weld, welds) = weld(positions);
         let mut welded_triangles = Vec::with_capacity(count / 3);
         let mut degenerate = 0;
         for t in 0..count / 3 {
@@ -138,7 +134,7 @@ impl MeshTopology {
         }
         // Particles: the welded vertices the triangles use, in the order of
         // the mesh's vertices (which keeps the mesh's locality).
-        let mut used = vec![false; weld_of_key.len()];
+        let mut used = vec![false; welds];
         for w in &welded_triangles {
             for &i in w {
                 used[i as usize] = true;
@@ -151,7 +147,7 @@ impl MeshTopology {
                 max: limit.min(u32::MAX as usize) as u32,
             });
         }
-        let mut particle_of_weld = vec![None; weld_of_key.len()];
+        let mut particle_of_weld = vec![None; welds];
         let mut out = Self {
             positions: Vec::with_capacity(particles),
             degenerate_triangles: degenerate,
@@ -396,6 +392,55 @@ pub fn disc(radius: f32, rings: u32) -> (Vec<Vec3>, Vec<u32>) {
         }
     }
     (positions, indices)
+}
+
+/// For each vertex its weld, and the number of welds: vertices within
+/// [`WELD_TOLERANCE`] of the mesh's size of an earlier vertex join its
+/// weld. Positions are finite.
+fn weld(positions: &[Vec3]) -> (Vec<u32>, usize) {
+    let lo = positions.iter().fold(Vec3::INFINITY, |a, &p| a.min(p));
+    let hi = positions.iter().fold(Vec3::NEG_INFINITY, |a, &p| a.max(p));
+    let eps = WELD_TOLERANCE * (hi - lo).length();
+    if !(eps.is_finite() && eps > 0.0) {
+        // One position, or a size past f32: weld equal positions only.
+        let mut of_key: HashMap<[u32; 3], u32> = HashMap::new();
+        let weld = positions
+            .iter()
+            .map(|p| {
+                let next = of_key.len() as u32;
+                *of_key
+                    .entry((*p + Vec3::ZERO).to_array().map(f32::to_bits))
+                    .or_insert(next)
+            })
+            .collect();
+        return (weld, of_key.len());
+    }
+    // Cells of side `eps`: a weld within `eps` is in the 27 around.
+    let cell = |p: Vec3| ((p - lo) / eps).floor().as_i64vec3().to_array();
+    let mut cells: HashMap<[i64; 3], Vec<u32>> = HashMap::new();
+    let mut representative: Vec<Vec3> = Vec::new();
+    let weld = positions
+        .iter()
+        .map(|&p| {
+            let [i, j, k] = cell(p);
+            let near = (-1..=1)
+                .flat_map(|a| {
+                    (-1..=1).flat_map(move |b| (-1..=1).map(move |c| [i + a, j + b, k + c]))
+                })
+                .filter_map(|key| cells.get(&key))
+                .flatten()
+                .copied()
+                .filter(|&w| representative[w as usize].distance(p) <= eps)
+                .min();
+            near.unwrap_or_else(|| {
+                let w = representative.len() as u32;
+                representative.push(p);
+                cells.entry([i, j, k]).or_default().push(w);
+                w
+            })
+        })
+        .collect();
+    (weld, representative.len())
 }
 
 /// A mesh edge: how many triangles share it, and the third particle of the
