@@ -56,7 +56,7 @@ pub(crate) fn apply_wind(
             &particles.velocities[..],
             &particles.inverse_masses[..],
         );
-        step_wind_forces(&cloth.0, &wind, air, state, dt, wind_f, rates);
+        step_wind_forces(cloth, &wind, air, state, dt, wind_f, rates);
         for (f, w) in forces.0.iter_mut().zip(wind_f.iter()) {
             *f += *w;
         }

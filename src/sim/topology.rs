@@ -211,15 +211,13 @@ impl MeshTopology {
     /// mesh cloth's forces are evaluated link by link, never in grid bands.
     pub fn connections(&self) -> Connections {
         let x = &self.positions;
-        let edges = edges(&self.triangles);
-        let mut keys: Vec<(u32, u32)> = edges.keys().copied().collect();
-        keys.sort_unstable();
+        let mut edges: Vec<((u32, u32), Edge)> = edges(&self.triangles).into_iter().collect();
+        edges.sort_unstable_by_key(|&(pair, _)| pair);
         // Every mesh edge first, so that a quad's other diagonal that is
         // also a mesh edge keeps that edge's family.
-        let mut type1: HashMap<(u32, u32), bool> = HashMap::with_capacity(2 * keys.len());
+        let mut type1: HashMap<(u32, u32), bool> = HashMap::with_capacity(2 * edges.len());
         let mut added = Vec::new();
-        for &(a, b) in &keys {
-            let edge = edges[&(a, b)];
+        for ((a, b), edge) in edges {
             let diagonal = edge.count == 2 && self.is_diagonal(a, b, edge.opposite);
             type1.insert((a, b), diagonal);
             if diagonal {

@@ -392,7 +392,7 @@ pub fn resolve_substep(
     }
     let mut itself = Counts::default();
     if let Some((cloth, self_thickness, buffers)) = self_collision {
-        itself = self_collide(&cloth.0, x, v, inverse_masses, self_thickness, buffers);
+        itself = self_collide(cloth, x, v, inverse_masses, self_thickness, buffers);
     }
     (against, itself)
 }

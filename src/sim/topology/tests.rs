@@ -21,8 +21,8 @@ fn parts(mesh: &Mesh) -> (Vec<Vec3>, Vec<u32>) {
     (positions, indices)
 }
 
-/// The pairs of a family as sets of `map`ped particle pairs, and their rest
-/// lengths (m) in the same order.
+/// The pairs of a family as a set of `map`ped particle pairs, each in
+/// increasing order.
 fn pairs(links: &[Link], map: impl Fn(u32) -> u32) -> BTreeSet<(u32, u32)> {
     links
         .iter()
