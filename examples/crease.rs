@@ -131,7 +131,8 @@ fn setup(
 
 /// The rest coordinates (m) of the particle nearest a world point.
 fn rest_uv(cloth: &Cloth, particles: &ClothParticles, point: Vec3) -> Option<Vec2> {
-    bevy_cloth::plugin::interaction::nearest(particles, point).map(|p| cloth.rest_uv(p))
+    let grid = cloth.grid()?;
+    bevy_cloth::plugin::interaction::nearest(particles, point).map(|p| grid.rest_uv(p))
 }
 
 fn shift(keys: &ButtonInput<KeyCode>) -> bool {

@@ -114,6 +114,8 @@ pub mod prelude {
     };
     pub use crate::plugin::interaction::{ClothGrabs, GrabMode};
     pub use crate::plugin::mesh::ClothMeshSettings;
+    pub use crate::plugin::mesh_builder::{ATTRIBUTE_PIN, MeshClothBuilder};
+    pub use crate::plugin::mesh_cloth::MeshLayout;
     #[cfg(feature = "egui")]
     pub use crate::plugin::panel::{ClothPanel, ClothPanelPlugin};
     #[cfg(feature = "picking")]

@@ -54,7 +54,10 @@ fn type2(cloth: &ClothBundle) -> Vec<GridLink> {
 fn a_line_through_a_particle_column_selects_the_connections_across_it() {
     let cloth = sheet();
     let crease = Crease::new(Vec2::new(0.5, 0.0), Vec2::new(0.5, 1.0)); // column 7
-    let got = pairs(&cloth, &crossing(&cloth.cloth, &cloth.connections, &crease));
+    let got = pairs(
+        &cloth,
+        &crossing(cloth.cloth.grid().unwrap(), &cloth.connections, &crease),
+    );
     // Independently: ends on strictly opposite sides of column 7.
     let want: BTreeSet<(u32, u32)> = type2(&cloth)
         .into_iter()
@@ -70,7 +73,10 @@ fn a_line_through_a_particle_column_selects_the_connections_across_it() {
 fn a_45_degree_line_selects_the_connections_across_the_diagonal() {
     let cloth = sheet();
     let crease = Crease::new(Vec2::ZERO, Vec2::ONE);
-    let got = pairs(&cloth, &crossing(&cloth.cloth, &cloth.connections, &crease));
+    let got = pairs(
+        &cloth,
+        &crossing(cloth.cloth.grid().unwrap(), &cloth.connections, &crease),
+    );
     let want: BTreeSet<(u32, u32)> = type2(&cloth)
         .into_iter()
         .filter(|(_, a, c)| (a.0 - a.1) * (c.0 - c.1) < 0)
@@ -83,7 +89,7 @@ fn a_45_degree_line_selects_the_connections_across_the_diagonal() {
 /// Angle (degrees) between the mean normals of the two flaps either side of
 /// column 7 (columns 0–4 and 10–14 of the triangles).
 fn fold_angle(x: &[Vec3]) -> f32 {
-    let cloth = sheet().cloth;
+    let cloth = sheet().cloth.grid().unwrap().clone();
     let mut flaps = [Vec3::ZERO; 2];
     for t in 0..cloth.triangle_count() as u32 {
         let [a, b, c] = cloth.triangle(t).map(|p| x[p as usize]);
@@ -239,7 +245,7 @@ fn a_sharp_crease_stays_finite_with_every_explicit_integrator() {
         let mut cloth = common::hanging(15);
         let sharp = Crease::new(Vec2::new(0.0, 0.5), Vec2::new(1.0, 0.5)).with_ratio(0.3);
         let errors = apply_creases(
-            &cloth.cloth,
+            cloth.cloth.grid().unwrap(),
             &mut cloth.connections,
             &mut CreaseRecord::default(),
             &[sharp],
@@ -268,7 +274,7 @@ fn a_sharp_crease_stays_finite_with_every_explicit_integrator() {
 
 #[test]
 fn invalid_creases_are_errors() {
-    let cloth = sheet().cloth;
+    let cloth = sheet().cloth.grid().unwrap().clone();
     let base = Crease::new(Vec2::new(0.5, 0.0), Vec2::new(0.5, 1.0));
     for bad in [
         base.with_ratio(0.0),
@@ -383,7 +389,7 @@ fn a_diagonal_crease_folds_along_its_own_line() {
         app.update();
     }
     let x = particles(&app, e).positions.clone();
-    let cloth = sheet().cloth;
+    let cloth = sheet().cloth.grid().unwrap().clone();
     // Bend at each particle: the largest angle between the normals of the
     // triangles around it. The most bent particles are the hinge.
     let normals: Vec<Vec3> = cloth

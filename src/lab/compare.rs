@@ -18,7 +18,7 @@
 use bevy::math::Vec3;
 
 use crate::lab::accuracy::scene;
-use crate::plugin::components::Cloth;
+use crate::sim::grid::Grid;
 use crate::sim::integrate::StepBuffers;
 use crate::sim::settings::{ClothModel, Integrator, SimSettings};
 use crate::sim::step::step_cloth;
@@ -43,7 +43,7 @@ pub struct Residual {
 
 /// Mean angle (rad) between the normals of the two triangles of every
 /// interior edge of the grid (diagonals and shared quad edges).
-pub fn wrinkle_measure(cloth: &Cloth, x: &[Vec3]) -> f32 {
+pub fn wrinkle_measure(cloth: &Grid, x: &[Vec3]) -> f32 {
     let normal = |t: u32| {
         let [a, b, c] = cloth.triangle(t).map(|p| x[p as usize]);
         (b - a).cross(c - a).normalize_or_zero()
@@ -79,7 +79,8 @@ pub fn pull_and_release(model: ClothModel) -> Residual {
         .without_adaptive();
     let mut cloth = scene(15);
     // The free bottom-left corner (column 0, last row).
-    let corner = cloth.cloth.index(0, cloth.cloth.rows - 1) as usize;
+    let grid = cloth.cloth.grid().expect("the scene is a grid").clone();
+    let corner = grid.index(0, grid.rows - 1) as usize;
     let mut buffers = StepBuffers::new(cloth.particles.len());
     let mut out = Residual {
         kinetic: [0.0; 3],
@@ -126,7 +127,7 @@ pub fn pull_and_release(model: ClothModel) -> Residual {
             out.speed[m] = p.velocities.iter().map(|v| v.length()).sum::<f32>() / p.len() as f32;
         }
     }
-    out.wrinkle = wrinkle_measure(&cloth.cloth, &cloth.particles.positions);
+    out.wrinkle = wrinkle_measure(&grid, &cloth.particles.positions);
     out
 }
 
@@ -139,7 +140,7 @@ mod tests {
     fn a_flat_sheet_has_no_wrinkles_and_a_fold_has_some() {
         let b = ClothBuilder::new(5, 5).build().unwrap();
         let mut x = b.particles.positions.clone();
-        assert!(wrinkle_measure(&b.cloth, &x) < 1e-6);
+        assert!(wrinkle_measure(b.cloth.grid().unwrap(), &x) < 1e-6);
         // Fold the last two columns up by 90° about column 2.
         for j in 0..5 {
             for i in 3..5 {
@@ -147,7 +148,7 @@ mod tests {
                 x[p] = Vec3::new(x[j * 5 + 2].x, (i - 2) as f32 * 0.25, x[p].z);
             }
         }
-        let folded = wrinkle_measure(&b.cloth, &x);
+        let folded = wrinkle_measure(b.cloth.grid().unwrap(), &x);
         // 4 of the 40 interior edges bend by 90°.
         assert!(
             (folded - 4.0 * std::f32::consts::FRAC_PI_2 / 40.0).abs() < 1e-3,

@@ -31,7 +31,7 @@ enum Pin {
 /// The entity a [`ClothBuilder`] makes: spawn it with `commands.spawn(bundle)`.
 #[derive(Bundle, Clone, Debug)]
 pub struct ClothBundle {
-    /// The grid description.
+    /// The layout: a grid or a mesh.
     pub cloth: Cloth,
     /// Particle state.
     pub particles: ClothParticles,
@@ -215,8 +215,8 @@ impl ClothBuilder {
         }
         let rotation = self.rotation / rot_len;
 
-        let cloth = Cloth(Grid { cols, rows, size });
-        let count = cloth.len();
+        let grid = Grid { cols, rows, size };
+        let count = grid.len();
         let total = match mass {
             Mass::PerArea(rho) => rho * size.x * size.y,
             Mass::Total(total) => total,
@@ -236,19 +236,19 @@ impl ClothBuilder {
         }
         let positions: Vec<Vec3> = (0..count as u32)
             .map(|p| {
-                let uv = cloth.rest_uv(p) - 0.5 * size;
+                let uv = grid.rest_uv(p) - 0.5 * size;
                 self.position + rotation * Vec3::new(uv.x, 0.0, uv.y)
             })
             .collect();
         let connections = ClothConnections::grid(cols, rows, &positions);
         let mut particles = ClothParticles::new(positions, masses);
         for pin in &self.pins {
-            for p in resolve(&cloth, pin)? {
+            for p in resolve(&grid, pin)? {
                 particles.pin(p as usize);
             }
         }
         Ok(ClothBundle {
-            cloth,
+            cloth: Cloth::Grid(grid),
             particles,
             connections,
             material: self.material,
@@ -269,7 +269,7 @@ impl ClothBuilder {
     }
 }
 
-fn resolve(cloth: &Cloth, pin: &Pin) -> Result<Vec<u32>, ClothError> {
+fn resolve(cloth: &Grid, pin: &Pin) -> Result<Vec<u32>, ClothError> {
     let (c, r) = (cloth.cols, cloth.rows);
     Ok(match pin {
         Pin::Index(p) => {
@@ -438,7 +438,7 @@ mod tests {
     #[test]
     fn triangles_cover_the_grid_counter_clockwise() {
         let b = ClothBuilder::new(15, 15).build().unwrap();
-        let tris = b.cloth.triangles();
+        let tris = b.cloth.grid().unwrap().triangles();
         assert_eq!(tris.len(), 392);
         // Columns along +X and rows along +Z: (a, d, c) turns +Z into +X, so
         // every triangle's normal is +Y for a horizontal sheet.

@@ -9,35 +9,109 @@ use bevy::prelude::{
     Resource,
 };
 
+use crate::plugin::mesh_cloth::MeshLayout;
 use crate::sim::connections::{Connections, max_strain};
 use crate::sim::grid::{Faces, Grid};
 use crate::sim::particles::Particles;
 use crate::sim::settings::{ClothModel, Integrator, SimSettings};
 
-/// A rectangular cloth: one entity whose particles and connections are
-/// [`ClothParticles`] and [`ClothConnections`]. Make it with
-/// [`ClothBuilder`](crate::ClothBuilder); [`ClothPlugin`](crate::ClothPlugin)
-/// makes it require the step's other components (forces, stats, grabs,
-/// material, scratch, the previous positions and a `Transform`).
+/// A cloth: one entity whose particles and connections are
+/// [`ClothParticles`] and [`ClothConnections`], laid out as a rectangular
+/// [`Grid`] or as any triangle mesh ([`MeshLayout`]). Make it with
+/// [`ClothBuilder`](crate::ClothBuilder) or
+/// [`ClothBuilder::from_mesh`](crate::ClothBuilder::from_mesh);
+/// [`ClothPlugin`](crate::ClothPlugin) makes it require the step's other
+/// components (forces, stats, grabs, material, scratch, the previous
+/// positions and a `Transform`).
 ///
-/// Dereferences to its [`Grid`] (columns, rows, rest size in m).
 /// Particles are simulated in world space; keep the entity's `Transform` at
 /// identity unless you want the rendered mesh offset from the simulation.
-#[derive(Component, Clone, Debug, PartialEq, Reflect, Deref, DerefMut)]
+#[derive(Component, Clone, Debug, PartialEq, Reflect)]
 #[reflect(Component)]
-pub struct Cloth(pub Grid);
+pub enum Cloth {
+    /// A `cols × rows` grid: its links are streamed in bands and its
+    /// implicit solve has a coarse-grid correction.
+    Grid(Grid),
+    /// A triangle mesh, welded, with the links of
+    /// [`MeshTopology::connections`](crate::sim::topology::MeshTopology::connections).
+    Mesh(MeshLayout),
+}
+
+impl From<Grid> for Cloth {
+    fn from(grid: Grid) -> Self {
+        Self::Grid(grid)
+    }
+}
+
+impl Cloth {
+    /// The grid of a rectangular cloth.
+    pub fn grid(&self) -> Option<&Grid> {
+        match self {
+            Self::Grid(grid) => Some(grid),
+            Self::Mesh(_) => None,
+        }
+    }
+
+    /// The shape of a mesh cloth.
+    pub fn mesh(&self) -> Option<&MeshLayout> {
+        match self {
+            Self::Grid(_) => None,
+            Self::Mesh(mesh) => Some(mesh),
+        }
+    }
+
+    /// Number of particles.
+    pub fn len(&self) -> usize {
+        match self {
+            Self::Grid(grid) => grid.len(),
+            Self::Mesh(mesh) => mesh.topology().len(),
+        }
+    }
+
+    /// Whether there are no particles (never for a built cloth).
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// The rest spacing of the particles in m (a grid's
+    /// [`Grid::spacing`]; a mesh's mean edge length), which scales a
+    /// [`ClothMaterial`](crate::ClothMaterial)'s stiffness.
+    pub fn spacing(&self) -> f32 {
+        match self {
+            Self::Grid(grid) => grid.spacing(),
+            Self::Mesh(mesh) => mesh.spacing(),
+        }
+    }
+
+    /// The rest area in m².
+    pub fn area(&self) -> f32 {
+        match self {
+            Self::Grid(grid) => grid.area(),
+            Self::Mesh(mesh) => mesh.area(),
+        }
+    }
+}
 
 impl Faces for Cloth {
     fn face_count(&self) -> usize {
-        self.0.face_count()
+        match self {
+            Self::Grid(grid) => grid.face_count(),
+            Self::Mesh(mesh) => mesh.topology().face_count(),
+        }
     }
 
     fn face(&self, t: u32) -> [u32; 3] {
-        self.0.face(t)
+        match self {
+            Self::Grid(grid) => grid.face(t),
+            Self::Mesh(mesh) => mesh.topology().face(t),
+        }
     }
 
     fn cell_size(&self) -> f32 {
-        self.0.cell_size()
+        match self {
+            Self::Grid(grid) => grid.cell_size(),
+            Self::Mesh(mesh) => mesh.cell_size(),
+        }
     }
 }
 

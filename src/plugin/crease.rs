@@ -2,7 +2,9 @@
 //! when they change ([`crate::sim::crease`] holds the geometry).
 //!
 //! Changing or removing `ClothCreases` restores the original rest lengths
-//! exactly and rebuilds only the crease connections. Cloths without creases
+//! exactly and rebuilds only the crease connections. Creases are lines
+//! in a grid's rest `(u, v)` coordinates: a mesh cloth has none, and its
+//! `ClothCreases` are ignored with a warning. Cloths without creases
 //! do no crease work (the system runs only on changed `ClothCreases`).
 
 use bevy::prelude::*;
@@ -50,13 +52,19 @@ pub(crate) fn update_creases(
     >,
 ) {
     for (entity, cloth, creases, mut connections, record) in &mut cloths {
+        let Some(grid) = cloth.grid() else {
+            if !creases.0.is_empty() {
+                warn!("the creases of cloth {entity} are ignored: creases need a grid cloth");
+            }
+            continue;
+        };
         let mut fresh = ClothCreaseRecord::default();
         let had_record = record.is_some();
         let record = match record {
             Some(r) => r.into_inner(),
             None => &mut fresh,
         };
-        for error in apply_creases(cloth, &mut connections, record, &creases.0) {
+        for error in apply_creases(grid, &mut connections, record, &creases.0) {
             warn!("a crease of cloth {entity} is ignored: {error}");
         }
         if !had_record {

@@ -1,5 +1,9 @@
 //! The live mesh: every cloth gets a [`Mesh3d`] whose positions and smooth
-//! normals follow the particles after each frame's fixed steps.
+//! normals follow the particles after each frame's fixed steps. A grid
+//! cloth's mesh has one vertex per particle and UVs along its columns and
+//! rows; a mesh cloth's has the source mesh's vertices, UVs and triangles,
+//! with the welded vertices of a seam sharing their particle's position and
+//! normal.
 //!
 //! - Runs in `PostUpdate` ([`ClothMeshSystems`]), before the asset events, so
 //!   Bevy's bounds system sees the changed mesh in the same frame and keeps
@@ -35,6 +39,7 @@ use bevy::time::Fixed;
 
 use crate::plugin::components::Cloth;
 use crate::plugin::components::ClothParticles;
+use crate::sim::grid::Faces;
 
 /// How cloth meshes are drawn.
 ///
@@ -125,26 +130,126 @@ pub fn grid_normals(cols: u32, rows: u32, x: &[Vec3], out: &mut [[f32; 3]]) {
     }
 }
 
-/// A mesh for `cloth` with vertices at `positions` (the mesh's local space):
-/// positions, smooth normals, UVs in `[0, 1]²` along columns and rows, and
-/// the triangles of [`Grid::triangles`](crate::sim::grid::Grid::triangles). Kept in both worlds so the CPU copy
+/// Area-weighted smooth normals of the particles of any cloth's triangles
+/// `faces`, seen from the side their winding faces. `x` in any length unit;
+/// `out` (one per particle) receives unit vectors (+Y where a particle has
+/// no area around it).
+pub fn face_normals(faces: &impl Faces, x: &[Vec3], out: &mut [[f32; 3]]) {
+    out.fill([0.0; 3]);
+    for t in faces.faces() {
+        let [a, b, c] = t.map(|p| x[p as usize]);
+        // Twice the area times the unit normal.
+        let n = (b - a).cross(c - a);
+        for p in t {
+            let o = &mut out[p as usize];
+            *o = (Vec3::from_array(*o) + n).to_array();
+        }
+    }
+    for o in out.iter_mut() {
+        *o = Vec3::from_array(*o)
+            .try_normalize()
+            .unwrap_or(Vec3::Y)
+            .to_array();
+    }
+}
+
+/// Number of vertices of `cloth`'s live mesh.
+fn render_len(cloth: &Cloth) -> usize {
+    match cloth {
+        Cloth::Grid(grid) => grid.len(),
+        Cloth::Mesh(mesh) => mesh.vertex_particles().len(),
+    }
+}
+
+/// Whether `cloth` can have a mesh with particles `x`.
+fn renderable(cloth: &Cloth, x: &[Vec3]) -> bool {
+    x.len() == cloth.len()
+        && match cloth {
+            Cloth::Grid(grid) => grid.cols >= 2 && grid.rows >= 2,
+            Cloth::Mesh(mesh) => !mesh.indices().is_empty(),
+        }
+}
+
+/// Smooth normals of `cloth`'s rendered vertices for particles at `x` (m,
+/// world), brought into local space by `inv`; `scratch` holds a mesh
+/// cloth's normals per particle.
+fn write_normals(
+    cloth: &Cloth,
+    x: &[Vec3],
+    inv: Option<Affine3A>,
+    out: &mut [[f32; 3]],
+    scratch: &mut Vec<[f32; 3]>,
+) {
+    let local = |n: [f32; 3]| match inv {
+        Some(inv) => inv
+            .transform_vector3(Vec3::from_array(n))
+            .try_normalize()
+            .unwrap_or(Vec3::Y)
+            .to_array(),
+        None => n,
+    };
+    match cloth {
+        Cloth::Grid(grid) => {
+            grid_normals(grid.cols, grid.rows, x, out);
+            if inv.is_some() {
+                out.iter_mut().for_each(|o| *o = local(*o));
+            }
+        }
+        Cloth::Mesh(mesh) => {
+            scratch.resize(x.len(), [0.0; 3]);
+            face_normals(mesh.topology(), x, scratch);
+            for (o, &p) in out.iter_mut().zip(mesh.vertex_particles()) {
+                *o = local(scratch[p as usize]);
+            }
+        }
+    }
+}
+
+/// Positions of `cloth`'s rendered vertices for particles at `x` (m,
+/// world), brought into local space by `inv`.
+fn write_positions(cloth: &Cloth, x: &[Vec3], inv: Option<Affine3A>, out: &mut [[f32; 3]]) {
+    let local = |p: Vec3| inv.map_or(p, |inv| inv.transform_point3(p)).to_array();
+    match cloth {
+        Cloth::Grid(_) => {
+            for (o, &p) in out.iter_mut().zip(x) {
+                *o = local(p);
+            }
+        }
+        Cloth::Mesh(mesh) => {
+            for (o, &p) in out.iter_mut().zip(mesh.vertex_particles()) {
+                *o = local(x[p as usize]);
+            }
+        }
+    }
+}
+
+/// A mesh for `cloth` with particles at `x` (m, world) and the world-to-
+/// local transform `inv`: positions, smooth normals, UVs and triangles (a
+/// grid's UVs run over `[0, 1]²` along its columns and rows and its
+/// triangles are [`Grid::triangles`](crate::sim::grid::Grid::triangles); a
+/// mesh cloth keeps its source mesh's). Kept in both worlds so the CPU copy
 /// can be rewritten and ray-cast for picking.
-pub fn cloth_mesh(cloth: &Cloth, positions: &[Vec3]) -> Mesh {
-    let mut normals = vec![[0.0; 3]; positions.len()];
-    grid_normals(cloth.cols, cloth.rows, positions, &mut normals);
-    let (cu, rv) = ((cloth.cols - 1) as f32, (cloth.rows - 1) as f32);
-    let uvs: Vec<[f32; 2]> = (0..cloth.len() as u32)
-        .map(|p| [(p % cloth.cols) as f32 / cu, (p / cloth.cols) as f32 / rv])
-        .collect();
-    let indices: Vec<u32> = cloth.triangles().into_iter().flatten().collect();
+pub fn cloth_mesh(cloth: &Cloth, x: &[Vec3], inv: Option<Affine3A>) -> Mesh {
+    let n = render_len(cloth);
+    let mut positions = vec![[0.0; 3]; n];
+    write_positions(cloth, x, inv, &mut positions);
+    let mut normals = vec![[0.0; 3]; n];
+    write_normals(cloth, x, inv, &mut normals, &mut Vec::new());
+    let (uvs, indices): (Vec<[f32; 2]>, Vec<u32>) = match cloth {
+        Cloth::Grid(grid) => {
+            let (cu, rv) = ((grid.cols - 1) as f32, (grid.rows - 1) as f32);
+            let uvs = (0..grid.len() as u32)
+                .map(|p| [(p % grid.cols) as f32 / cu, (p / grid.cols) as f32 / rv])
+                .collect();
+            (uvs, grid.triangles().into_iter().flatten().collect())
+        }
+        Cloth::Mesh(mesh) => (mesh.uvs_or_projected(), mesh.indices().to_vec()),
+    };
     Mesh::new(
         PrimitiveTopology::TriangleList,
         RenderAssetUsages::default(),
     )
-    .with_inserted_attribute(
-        Mesh::ATTRIBUTE_POSITION,
-        positions.iter().map(|p| p.to_array()).collect::<Vec<_>>(),
-    )
+    .with_inserted_attribute(Mesh::ATTRIBUTE_POSITION, positions)
     .with_inserted_attribute(Mesh::ATTRIBUTE_NORMAL, normals)
     .with_inserted_attribute(Mesh::ATTRIBUTE_UV_0, uvs)
     .with_inserted_indices(Indices::U32(indices))
@@ -156,18 +261,6 @@ fn to_local(transform: Option<&GlobalTransform>) -> Option<Affine3A> {
         .map(|t| t.affine())
         .filter(|a| *a != Affine3A::IDENTITY)
         .map(|a| a.inverse())
-}
-
-fn local_positions(particles: &ClothParticles, inv: Option<Affine3A>) -> Vec<Vec3> {
-    local_of(&particles.positions, inv)
-}
-
-/// Positions `x` (m, world) in the cloth's local space.
-fn local_of(x: &[Vec3], inv: Option<Affine3A>) -> Vec<Vec3> {
-    match inv {
-        Some(inv) => x.iter().map(|&p| inv.transform_point3(p)).collect(),
-        None => x.to_vec(),
-    }
 }
 
 /// How many vertices `mesh` has (`None` without readable positions), so a
@@ -186,11 +279,10 @@ pub(crate) fn attach_cloth_meshes(
     cloths: Query<(Entity, &Cloth, &ClothParticles, Option<&GlobalTransform>), Without<Mesh3d>>,
 ) {
     for (entity, cloth, particles, transform) in &cloths {
-        if particles.len() != cloth.len() || cloth.cols < 2 || cloth.rows < 2 {
+        if !renderable(cloth, &particles.positions) {
             continue;
         }
-        let positions = local_positions(particles, to_local(transform));
-        let handle = meshes.add(cloth_mesh(cloth, &positions));
+        let handle = meshes.add(cloth_mesh(cloth, &particles.positions, to_local(transform)));
         let mut e = commands.entity(entity);
         e.try_insert(Mesh3d(handle));
         #[cfg(feature = "picking")]
@@ -215,6 +307,7 @@ pub(crate) fn sync_cloth_meshes(
     settings: Option<Res<ClothMeshSettings>>,
     time: Option<Res<Time<Fixed>>>,
     mut shown: Local<Vec<Vec3>>,
+    mut scratch: Local<Vec<[f32; 3]>>,
     cloths: Query<SyncQuery>,
 ) {
     let interpolate = settings.is_none_or(|s| s.interpolate);
@@ -228,7 +321,7 @@ pub(crate) fn sync_cloth_meshes(
         }
         // A non-finite state keeps the last good mesh: NaN vertices would
         // break bounds, culling and picking (Bevy asserts on them).
-        if particles.len() != n || cloth.cols < 2 || cloth.rows < 2 || !particles.is_finite() {
+        if !renderable(cloth, &particles.positions) || !particles.is_finite() {
             continue;
         }
         let x: &[Vec3] = match between {
@@ -252,28 +345,21 @@ pub(crate) fn sync_cloth_meshes(
             continue;
         };
         let inv = to_local(transform);
-        if vertex_count(&mesh) != Some(n) {
-            *mesh = cloth_mesh(cloth, &local_of(x, inv));
+        let vertices = render_len(cloth);
+        if vertex_count(&mesh) != Some(vertices) {
+            *mesh = cloth_mesh(cloth, x, inv);
             continue;
         }
         if let Ok(VertexAttributeValues::Float32x3(out)) =
             mesh.try_attribute_mut(Mesh::ATTRIBUTE_POSITION)
         {
-            for (o, &p) in out.iter_mut().zip(x) {
-                *o = inv.map_or(p, |inv| inv.transform_point3(p)).to_array();
-            }
+            write_positions(cloth, x, inv, out);
         }
         match mesh.try_attribute_mut(Mesh::ATTRIBUTE_NORMAL) {
-            Ok(VertexAttributeValues::Float32x3(out)) if out.len() == n => {
-                grid_normals(cloth.cols, cloth.rows, x, out);
-                if let Some(inv) = inv {
-                    for o in out.iter_mut() {
-                        let local = inv.transform_vector3(Vec3::from_array(*o));
-                        *o = local.try_normalize().unwrap_or(Vec3::Y).to_array();
-                    }
-                }
+            Ok(VertexAttributeValues::Float32x3(out)) if out.len() == vertices => {
+                write_normals(cloth, x, inv, out, &mut scratch);
             }
-            _ => *mesh = cloth_mesh(cloth, &local_of(x, inv)),
+            _ => *mesh = cloth_mesh(cloth, x, inv),
         }
     }
 }

@@ -1,12 +1,182 @@
 //! Cloth of any shape from a Bevy `Mesh`: its particles and links
-//! ([`MeshTopology`]), and the pins an artist painted into its vertex
-//! colours. The one place the mesh topology meets `bevy::mesh`.
+//! ([`MeshTopology`]), the [`MeshLayout`] a mesh cloth renders with, and the
+//! pins an artist painted into its vertex colours or a named attribute.
+//! The one place the mesh topology meets `bevy::mesh`.
 
-use bevy::math::Vec3;
+use std::sync::Arc;
+
+use bevy::math::{Vec2, Vec3};
 use bevy::mesh::{Indices, Mesh, PrimitiveTopology, VertexAttributeValues};
+use bevy::reflect::Reflect;
 
 use crate::error::ClothError;
+use crate::sim::grid::Faces;
 use crate::sim::topology::MeshTopology;
+
+/// The shape of a cloth made from a mesh: its welded [`MeshTopology`]
+/// (rest positions in the mesh's own space, m) and the source mesh's
+/// vertices that the live mesh renders, so UV seams stay seams while the
+/// particles on both sides are one. Cheap to clone (shared).
+#[derive(Clone, Debug, PartialEq, Reflect)]
+#[reflect(opaque, Clone, Debug, PartialEq)]
+pub struct MeshLayout(Arc<ShapeData>);
+
+#[derive(Debug, PartialEq)]
+struct ShapeData {
+    topology: MeshTopology,
+    vertex_particles: Vec<u32>,
+    uvs: Option<Vec<[f32; 2]>>,
+    indices: Vec<u32>,
+    spacing: f32,
+    area: f32,
+    cell_size: f32,
+}
+
+impl MeshLayout {
+    /// The shape of `topology`, made from a mesh whose vertices have UVs
+    /// `uvs` (if any) and triangles `indices` (three per triangle;
+    /// consecutive vertices when `None`). Vertices no particle stands for
+    /// are left out, and so are triangles that lost a corner to welding.
+    pub fn new(topology: MeshTopology, uvs: Option<&[[f32; 2]]>, indices: Option<&[u32]>) -> Self {
+        let mut render_of = vec![u32::MAX; topology.particle_of.len()];
+        let mut vertex_particles = Vec::new();
+        let mut kept_uvs = Vec::new();
+        for (v, p) in topology.particle_of.iter().enumerate() {
+            if let Some(p) = *p {
+                render_of[v] = vertex_particles.len() as u32;
+                vertex_particles.push(p);
+                if let Some(uvs) = uvs {
+                    kept_uvs.push(uvs.get(v).copied().unwrap_or_default());
+                }
+            }
+        }
+        let count = indices.map_or(topology.particle_of.len(), <[u32]>::len);
+        let source = |k: usize| indices.map_or(k, |i| i[k] as usize);
+        let mut kept = Vec::with_capacity(count);
+        for t in 0..count / 3 {
+            let v = [source(3 * t), source(3 * t + 1), source(3 * t + 2)];
+            let r = v.map(|v| render_of.get(v).copied().unwrap_or(u32::MAX));
+            if r.contains(&u32::MAX) {
+                continue;
+            }
+            let p = r.map(|r| vertex_particles[r as usize]);
+            if p[0] != p[1] && p[1] != p[2] && p[2] != p[0] {
+                kept.extend(r);
+            }
+        }
+        let x = &topology.positions;
+        let edges: Vec<f32> = topology
+            .triangles
+            .iter()
+            .flat_map(|&[a, b, c]| [(a, b), (b, c), (c, a)])
+            .map(|(a, b)| x[a as usize].distance(x[b as usize]))
+            .collect();
+        let spacing = edges.iter().sum::<f32>() / edges.len().max(1) as f32;
+        let area = topology
+            .triangles
+            .iter()
+            .map(|t| {
+                let [a, b, c] = t.map(|i| x[i as usize]);
+                0.5 * (b - a).cross(c - a).length()
+            })
+            .sum();
+        let cell_size = topology.cell_size();
+        Self(Arc::new(ShapeData {
+            topology,
+            vertex_particles,
+            uvs: uvs.map(|_| kept_uvs),
+            indices: kept,
+            spacing,
+            area,
+            cell_size,
+        }))
+    }
+
+    /// The shape of a Bevy `Mesh` (see [`MeshTopology::from_mesh`]),
+    /// keeping its `ATTRIBUTE_UV_0` for rendering.
+    pub fn from_mesh(mesh: &Mesh) -> Result<Self, ClothError> {
+        let topology = MeshTopology::from_mesh(mesh)?;
+        let uvs = match mesh.try_attribute(Mesh::ATTRIBUTE_UV_0) {
+            Ok(VertexAttributeValues::Float32x2(uvs)) => Some(uvs.as_slice()),
+            _ => None,
+        };
+        Ok(Self::new(topology, uvs, mesh_indices(mesh).as_deref()))
+    }
+
+    /// The welded particles and triangles.
+    pub fn topology(&self) -> &MeshTopology {
+        &self.0.topology
+    }
+
+    /// For each vertex the live mesh renders, its particle.
+    pub fn vertex_particles(&self) -> &[u32] {
+        &self.0.vertex_particles
+    }
+
+    /// The source mesh's UVs of the rendered vertices, if it had any.
+    pub fn uvs(&self) -> Option<&[[f32; 2]]> {
+        self.0.uvs.as_deref()
+    }
+
+    /// The rendered triangles, three indices into
+    /// [`vertex_particles`](Self::vertex_particles) each.
+    pub fn indices(&self) -> &[u32] {
+        &self.0.indices
+    }
+
+    /// The mean rest edge length, m.
+    pub fn spacing(&self) -> f32 {
+        self.0.spacing
+    }
+
+    /// The rest area, m².
+    pub fn area(&self) -> f32 {
+        self.0.area
+    }
+
+    /// The longest rest edge, m (see [`Faces::cell_size`]).
+    pub fn cell_size(&self) -> f32 {
+        self.0.cell_size
+    }
+
+    /// UVs for the rendered vertices: the source mesh's, or else the rest
+    /// positions projected on their two widest axes, scaled to `[0, 1]`.
+    pub fn uvs_or_projected(&self) -> Vec<[f32; 2]> {
+        if let Some(uvs) = self.uvs() {
+            return uvs.to_vec();
+        }
+        let x = &self.topology().positions;
+        let (lo, hi) = x
+            .iter()
+            .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), p| {
+                (lo.min(*p), hi.max(*p))
+            });
+        let extent = (hi - lo).max(Vec3::splat(1e-9));
+        let thin = extent.min_position();
+        let (a, b) = match thin {
+            0 => (1, 2),
+            1 => (0, 2),
+            _ => (0, 1),
+        };
+        let scale = extent[a].max(extent[b]);
+        self.vertex_particles()
+            .iter()
+            .map(|&p| {
+                let q = (x[p as usize] - lo) / scale;
+                Vec2::new(q[a], q[b]).to_array()
+            })
+            .collect()
+    }
+}
+
+/// A mesh's indices as `u32`, `None` for a mesh without indices.
+pub(crate) fn mesh_indices(mesh: &Mesh) -> Option<Vec<u32>> {
+    match mesh.try_indices() {
+        Ok(Indices::U16(i)) => Some(i.iter().map(|&i| i as u32).collect()),
+        Ok(Indices::U32(i)) => Some(i.clone()),
+        Err(_) => None,
+    }
+}
 
 impl MeshTopology {
     /// The particles and triangles of a Bevy `Mesh`: a triangle list with
@@ -24,12 +194,7 @@ impl MeshTopology {
             return Err(ClothError::UnsupportedMesh("no Float32x3 positions"));
         };
         let positions: Vec<Vec3> = positions.iter().map(|&p| Vec3::from_array(p)).collect();
-        let indices: Option<Vec<u32>> = match mesh.try_indices() {
-            Ok(Indices::U16(i)) => Some(i.iter().map(|&i| i as u32).collect()),
-            Ok(Indices::U32(i)) => Some(i.clone()),
-            Err(_) => None,
-        };
-        Self::new(&positions, indices.as_deref())
+        Self::new(&positions, mesh_indices(mesh).as_deref())
     }
 }
 

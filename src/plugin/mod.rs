@@ -21,6 +21,7 @@ pub mod events;
 pub mod interaction;
 pub mod material;
 pub mod mesh;
+pub mod mesh_builder;
 pub mod mesh_cloth;
 #[cfg(feature = "egui")]
 pub mod panel;

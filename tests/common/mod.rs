@@ -125,3 +125,65 @@ impl Rng {
         (self.next() % n as u64) as u32
     }
 }
+
+/// [`disc`](bevy_cloth::sim::topology::disc) of `radius` m as positions and
+/// indices, every inner vertex moved by up to `jitter` of a spacing so the
+/// triangles are irregular (the rim stays round).
+pub fn jittered_disc(rings: u32, radius: f32, jitter: f32) -> (Vec<Vec3>, Vec<u32>) {
+    let (mut positions, indices) = bevy_cloth::sim::topology::disc(radius, rings);
+    let spacing = radius / rings as f32;
+    let mut rng = Rng::new(0x9e37_79b9_7f4a_7c15);
+    let rim = positions.len() - 6 * rings as usize;
+    for p in positions.iter_mut().take(rim) {
+        *p += Vec3::new(rng.signed(), 0.0, rng.signed()) * 0.5 * jitter * spacing;
+    }
+    (positions, indices)
+}
+
+/// A Bevy `Mesh` of a [`jittered_disc`] in the xz plane, its UVs the
+/// positions mapped onto `[0, 1]²`.
+pub fn disc_mesh(rings: u32, radius: f32, jitter: f32) -> Mesh {
+    let (positions, indices) = jittered_disc(rings, radius, jitter);
+    triangle_mesh(&positions, indices)
+}
+
+/// A Bevy triangle-list `Mesh` with `positions` (m), `indices` and UVs
+/// from the xz coordinates.
+pub fn triangle_mesh(positions: &[Vec3], indices: Vec<u32>) -> Mesh {
+    let (lo, hi) = positions
+        .iter()
+        .fold((Vec3::MAX, Vec3::MIN), |(l, h), p| (l.min(*p), h.max(*p)));
+    let span = (hi - lo).max(Vec3::splat(1e-6));
+    let uvs: Vec<[f32; 2]> = positions
+        .iter()
+        .map(|p| [(p.x - lo.x) / span.x, (p.z - lo.z) / span.z])
+        .collect();
+    Mesh::new(
+        bevy::mesh::PrimitiveTopology::TriangleList,
+        bevy::asset::RenderAssetUsages::default(),
+    )
+    .with_inserted_attribute(
+        Mesh::ATTRIBUTE_POSITION,
+        positions.iter().map(|p| p.to_array()).collect::<Vec<_>>(),
+    )
+    .with_inserted_attribute(Mesh::ATTRIBUTE_UV_0, uvs)
+    .with_inserted_indices(bevy::mesh::Indices::U32(indices))
+}
+
+/// An app as [`app`] that also has `Assets<Mesh>`, so cloths get a live
+/// mesh; the mesh shows the last step as it is (no interpolation).
+pub fn app_with_meshes() -> App {
+    let mut app = App::new();
+    app.add_plugins((
+        MinimalPlugins,
+        TransformPlugin,
+        AssetPlugin::default(),
+        ClothPlugin::default(),
+    ))
+    .init_asset::<Mesh>()
+    .insert_resource(Time::<Fixed>::from_hz(60.0))
+    .insert_resource(TimeUpdateStrategy::FixedTimesteps(1))
+    .insert_resource(ClothMeshSettings { interpolate: false });
+    app.update();
+    app
+}

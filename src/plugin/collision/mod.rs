@@ -392,7 +392,7 @@ pub fn resolve_substep(
     }
     let mut itself = Counts::default();
     if let Some((cloth, self_thickness, buffers)) = self_collision {
-        itself = self_collide(cloth, x, v, inverse_masses, self_thickness, buffers);
+        itself = self_collide(cloth, start, x, v, inverse_masses, self_thickness, buffers);
     }
     (against, itself)
 }
@@ -602,7 +602,7 @@ fn seed_pass(
                 counts += seed_triangle_pass(
                     &moving,
                     &mesh.0,
-                    cloth.triangle_iter(),
+                    crate::sim::grid::Faces::faces(cloth),
                     positions,
                     velocities,
                     inverse_masses,

@@ -45,8 +45,14 @@ fn barycentric(c: Vec3, [a, b, d]: [Vec3; 3]) -> [f32; 3] {
 /// triangle it is not a corner of. Corrections are split by inverse mass
 /// between the particle and the triangle's corners (momentum is conserved),
 /// and their approaching normal velocity is removed. `x` in m, `v` in m/s.
+///
+/// A particle within `thickness` of a triangle's inside is put back on the
+/// side of the triangle's plane it was on at the step's start (`start`,
+/// m): one that went through the triangle in this step, or lies on it,
+/// does not stay on the wrong side.
 pub fn self_collide(
     cloth: &impl Faces,
+    start: &[Vec3],
     x: &mut [Vec3],
     v: &mut [Vec3],
     inverse_masses: &[f32],
@@ -91,14 +97,32 @@ pub fn self_collide(
             if dist >= thickness {
                 continue;
             }
-            let n = if dist > 1e-9 {
+            let bary = barycentric(c, corners);
+            let face = (corners[1] - corners[0])
+                .cross(corners[2] - corners[0])
+                .normalize_or(Vec3::Y);
+            let mut depth = thickness - dist;
+            let n = if bary.iter().all(|&b| b > 1e-4) {
+                // Over the triangle's inside: back to the side of its
+                // plane the particle started on.
+                let before = tri.map(|q| start[q as usize]);
+                let normal = (before[1] - before[0]).cross(before[2] - before[0]);
+                let was = (start[p] - before[0]).dot(normal) * normal.dot(face);
+                let now = off.dot(face);
+                let side = if was != 0.0 {
+                    was.signum()
+                } else {
+                    now.signum()
+                };
+                if side * now < 0.0 {
+                    depth = thickness + dist;
+                }
+                face * side
+            } else if dist > 1e-9 {
                 off / dist
             } else {
-                (corners[1] - corners[0])
-                    .cross(corners[2] - corners[0])
-                    .normalize_or(Vec3::Y)
+                face
             };
-            let bary = barycentric(c, corners);
             let wp = inverse_masses[p];
             let wt: f32 = (0..3)
                 .map(|i| bary[i] * bary[i] * inverse_masses[tri[i] as usize])
@@ -108,7 +132,7 @@ pub fn self_collide(
             }
             counts.contacts += 1;
             // Position: close the gap to the thickness.
-            let s = (thickness - dist) / (wp + wt);
+            let s = depth / (wp + wt);
             x[p] += wp * s * n;
             for i in 0..3 {
                 let q = tri[i] as usize;
@@ -148,7 +172,8 @@ mod tests {
         let centre = |x: &[Vec3]| x.iter().sum::<Vec3>();
         let (p0, c0) = (momentum(&v), centre(&x));
         let mut buffers = SelfCollisionBuffers::default();
-        let counts = self_collide(&cloth.cloth, &mut x, &mut v, &w, 0.01, &mut buffers);
+        let start = x.clone();
+        let counts = self_collide(&cloth.cloth, &start, &mut x, &mut v, &w, 0.01, &mut buffers);
         assert!(counts.contacts >= 1, "{counts:?}");
         assert!(x[8].y >= 0.005, "{}", x[8]);
         assert!(v[8].y > -1.0);
@@ -157,7 +182,36 @@ mod tests {
         // Far apart: nothing happens.
         let mut x = cloth.particles.positions.clone();
         let before = x.clone();
-        let counts = self_collide(&cloth.cloth, &mut x, &mut v, &w, 0.01, &mut buffers);
+        let start = x.clone();
+        let counts = self_collide(&cloth.cloth, &start, &mut x, &mut v, &w, 0.01, &mut buffers);
         assert_eq!((counts.contacts, x), (0, before));
+    }
+
+    #[test]
+    fn a_particle_that_went_through_a_triangle_is_put_back_on_its_side() {
+        let cloth = ClothBuilder::new(3, 3).size(2.0, 2.0).build().unwrap();
+        let start = {
+            let mut x = cloth.particles.positions.clone();
+            x[8] = Vec3::new(-0.6, 0.03, -0.4);
+            x
+        };
+        let w = vec![1.0; 9];
+        // It ends 4 mm below triangle (0, 3, 4), or exactly on it.
+        for end in [-0.004, 0.0] {
+            let mut x = start.clone();
+            x[8].y = end;
+            let mut v = vec![Vec3::ZERO; 9];
+            v[8] = Vec3::new(0.0, -2.0, 0.0);
+            let mut buffers = SelfCollisionBuffers::default();
+            self_collide(&cloth.cloth, &start, &mut x, &mut v, &w, 0.01, &mut buffers);
+            // Above the sheet (which gave way by a share of the push).
+            let sheet = (x[0].y + x[3].y + x[4].y) / 3.0;
+            assert!(
+                x[8].y > sheet,
+                "ended at {end}: {} below the sheet at {sheet}",
+                x[8].y
+            );
+            assert!(v[8].y > -2.0);
+        }
     }
 }

@@ -300,7 +300,7 @@ fn wind_and_self_collision_act_on_a_meshs_faces() {
     let mut buffers = SelfCollisionBuffers::default();
     let spacing = 0.5 / 6.0;
     assert!(t.cell_size() > spacing && t.cell_size() < 2.0 * spacing);
-    let counts = self_collide(&t, &mut x, &mut v, &w, 0.01, &mut buffers);
+    let counts = self_collide(&t, &x.clone(), &mut x, &mut v, &w, 0.01, &mut buffers);
     assert!(counts.contacts > 0);
     let below = (0..7).map(|p| x[p].y).fold(f32::NEG_INFINITY, f32::max);
     let gap = x[rim].y - below;

@@ -1,0 +1,440 @@
+//! [`MeshClothBuilder`]: a validated cloth of any shape from a Bevy `Mesh`,
+//! made by [`ClothBuilder::from_mesh`](crate::ClothBuilder::from_mesh).
+
+use bevy::math::{Quat, Vec3};
+use bevy::mesh::{Mesh, MeshVertexAttribute, VertexAttributeValues, VertexFormat};
+
+use crate::error::ClothError;
+use crate::plugin::builder::{ClothBuilder, ClothBundle};
+use crate::plugin::components::{Cloth, ClothConnections, ClothParticles, ClothSettings};
+use crate::plugin::material::ClothMaterial;
+use crate::plugin::mesh_cloth::{MeshLayout, painted_particles};
+
+/// How the cloth's mass is given.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Mass {
+    PerArea(f32),
+    Total(f32),
+}
+
+/// A pin request, resolved against the welded mesh.
+enum Pin {
+    Vertex(u32),
+    Where(Box<dyn Fn(Vec3) -> bool + Send + Sync>),
+    Painted(usize),
+    Attribute(String),
+}
+
+impl ClothBuilder {
+    /// A cloth of the shape of `mesh`: any triangle list with `Float32x3`
+    /// positions (m, in the mesh's own space), indexed (`u16` or `u32`) or
+    /// not. Vertices at the same position are welded into one particle;
+    /// the mesh's UVs and triangles are kept for rendering, and its links
+    /// follow [`MeshTopology::connections`](crate::sim::topology::MeshTopology::connections).
+    ///
+    /// A bad mesh is reported by [`build`](MeshClothBuilder::build): see
+    /// [`MeshTopology::new`](crate::sim::topology::MeshTopology::new) and
+    /// [`ClothError::UnsupportedMesh`].
+    ///
+    /// ```
+    /// use bevy::prelude::*;
+    /// use bevy_cloth::prelude::*;
+    /// // A round tablecloth of 0.8 m radius, 1 m up, pinned at its centre.
+    /// let disc = Circle::new(0.8).mesh().resolution(48).build();
+    /// let cloth = ClothBuilder::from_mesh(&disc)
+    ///     .rotation(Quat::from_rotation_x(-std::f32::consts::FRAC_PI_2))
+    ///     .position(Vec3::Y)
+    ///     .pin_where(|rest| rest.length() < 0.01)
+    ///     .build()
+    ///     .unwrap();
+    /// assert!(cloth.cloth.mesh().is_some());
+    /// ```
+    pub fn from_mesh(mesh: &Mesh) -> MeshClothBuilder {
+        MeshClothBuilder {
+            mesh: mesh.clone(),
+            mass: None,
+            material: ClothMaterial::COTTON,
+            uniform_mass: false,
+            position: Vec3::ZERO,
+            rotation: Quat::IDENTITY,
+            pins: Vec::new(),
+        }
+    }
+}
+
+/// Builds a validated cloth from a triangle mesh; made by
+/// [`ClothBuilder::from_mesh`].
+///
+/// The particles rest where the mesh's vertices are, in the mesh's own
+/// space, before [`rotation`](Self::rotation) and
+/// [`position`](Self::position) place them in the world. The material
+/// defaults to [`ClothMaterial::COTTON`]; the mass to the material's
+/// density, lumped by area (each triangle's mass split equally between its
+/// corners).
+pub struct MeshClothBuilder {
+    mesh: Mesh,
+    mass: Option<Mass>,
+    material: ClothMaterial,
+    uniform_mass: bool,
+    position: Vec3,
+    rotation: Quat,
+    pins: Vec<Pin>,
+}
+
+impl std::fmt::Debug for MeshClothBuilder {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("MeshClothBuilder")
+            .field("vertices", &self.mesh.count_vertices())
+            .field("mass", &self.mass)
+            .field("material", &self.material)
+            .field("uniform_mass", &self.uniform_mass)
+            .field("position", &self.position)
+            .field("rotation", &self.rotation)
+            .field("pins", &self.pins.len())
+            .finish()
+    }
+}
+
+impl MeshClothBuilder {
+    /// What the cloth is made of ([`ClothMaterial`]).
+    pub fn material(mut self, material: ClothMaterial) -> Self {
+        self.material = material;
+        self
+    }
+
+    /// Areal density in kg/m² (instead of the material's).
+    pub fn mass_per_area(mut self, kg_per_m2: f32) -> Self {
+        self.mass = Some(Mass::PerArea(kg_per_m2));
+        self
+    }
+
+    /// Total mass in kg (instead of the material's density).
+    pub fn total_mass(mut self, kg: f32) -> Self {
+        self.mass = Some(Mass::Total(kg));
+        self
+    }
+
+    /// Gives every particle the same mass instead of lumping it by area.
+    pub fn uniform_mass(mut self) -> Self {
+        self.uniform_mass = true;
+        self
+    }
+
+    /// World position (m) of the mesh's origin.
+    pub fn position(mut self, position: Vec3) -> Self {
+        self.position = position;
+        self
+    }
+
+    /// World orientation of the mesh (normalised when built).
+    pub fn rotation(mut self, rotation: Quat) -> Self {
+        self.rotation = rotation;
+        self
+    }
+
+    /// Pins the particle of the mesh's vertex `vertex`.
+    pub fn pin_vertex(mut self, vertex: u32) -> Self {
+        self.pins.push(Pin::Vertex(vertex));
+        self
+    }
+
+    /// Pins every particle whose rest position (m, in the mesh's own space)
+    /// satisfies `predicate`.
+    pub fn pin_where(mut self, predicate: impl Fn(Vec3) -> bool + Send + Sync + 'static) -> Self {
+        self.pins.push(Pin::Where(Box::new(predicate)));
+        self
+    }
+
+    /// Pins every particle with a vertex whose colour has `channel` (0 red,
+    /// 1 green, 2 blue, 3 alpha) at 0.5 or more: pins painted in Blender's
+    /// colour attribute.
+    pub fn pin_painted(mut self, channel: usize) -> Self {
+        self.pins.push(Pin::Painted(channel));
+        self
+    }
+
+    /// Pins every particle with a vertex whose `Float32` attribute named
+    /// `name` is 0.5 or more. [`ATTRIBUTE_PIN`] is such an attribute; a
+    /// glTF's custom attribute reaches it through
+    /// `GltfPlugin::add_custom_vertex_attribute("_PIN", ATTRIBUTE_PIN)`.
+    pub fn pin_attribute(mut self, name: impl Into<String>) -> Self {
+        self.pins.push(Pin::Attribute(name.into()));
+        self
+    }
+
+    /// Checks the mesh and the description and makes the cloth.
+    ///
+    /// Errors: those of [`MeshLayout::from_mesh`], a pinned vertex out of
+    /// range or unused ([`ClothError::ParticleOutOfRange`]), pins the mesh
+    /// has no colours or attribute for ([`ClothError::UnsupportedMesh`]),
+    /// and an invalid material, mass or placement.
+    pub fn build(self) -> Result<ClothBundle, ClothError> {
+        self.material.validate()?;
+        let mass = self.mass.unwrap_or(Mass::PerArea(
+            self.material.fabric().map_or(0.15, |f| f.density),
+        ));
+        let (Mass::PerArea(m) | Mass::Total(m)) = mass;
+        if !(m.is_finite() && m > 0.0) {
+            return Err(ClothError::InvalidMass(m));
+        }
+        let rot_len = self.rotation.length();
+        if !(self.position.is_finite() && self.rotation.is_finite() && rot_len > 1e-6) {
+            return Err(ClothError::InvalidPlacement);
+        }
+        let rotation = self.rotation / rot_len;
+        let shape = MeshLayout::from_mesh(&self.mesh)?;
+        let topology = shape.topology();
+        let count = topology.len();
+        let mut masses = match mass {
+            Mass::PerArea(rho) => topology.lumped_masses(rho),
+            Mass::Total(total) => {
+                let mut masses = topology.lumped_masses(1.0);
+                let sum: f32 = masses.iter().sum();
+                masses.iter_mut().for_each(|m| *m *= total / sum);
+                masses
+            }
+        };
+        if self.uniform_mass {
+            let total: f32 = masses.iter().sum();
+            masses.fill(total / count as f32);
+        }
+        if masses.iter().any(|m| !(m.is_finite() && *m > 0.0)) {
+            return Err(ClothError::InvalidMass(m));
+        }
+        let positions: Vec<Vec3> = topology
+            .positions
+            .iter()
+            .map(|&p| self.position + rotation * p)
+            .collect();
+        let connections = ClothConnections(topology.connections());
+        let mut particles = ClothParticles::new(positions, masses);
+        for pin in &self.pins {
+            for p in self.resolve(&shape, pin)? {
+                particles.pin(p as usize);
+            }
+        }
+        Ok(ClothBundle {
+            cloth: Cloth::Mesh(shape),
+            particles,
+            connections,
+            material: self.material,
+        })
+    }
+
+    /// Like [`build`](Self::build), and also validates `settings` for use as
+    /// this cloth's override.
+    pub fn build_with(
+        self,
+        settings: impl Into<ClothSettings>,
+    ) -> Result<(ClothBundle, ClothSettings), ClothError> {
+        let settings = settings.into();
+        settings.validate()?;
+        Ok((self.build()?, settings))
+    }
+
+    fn resolve(&self, shape: &MeshLayout, pin: &Pin) -> Result<Vec<u32>, ClothError> {
+        let topology = shape.topology();
+        let vertices = topology.particle_of.len();
+        Ok(match pin {
+            Pin::Vertex(v) => match topology.particle_of.get(*v as usize) {
+                Some(Some(p)) => vec![*p],
+                _ => {
+                    return Err(ClothError::ParticleOutOfRange {
+                        index: *v,
+                        count: vertices as u32,
+                    });
+                }
+            },
+            Pin::Where(f) => topology.particles_where(f),
+            Pin::Painted(channel) => painted_particles(&self.mesh, topology, *channel)?,
+            Pin::Attribute(name) => {
+                let values = self
+                    .mesh
+                    .attributes()
+                    .find(|(a, _)| a.name == name.as_str())
+                    .map(|(_, v)| v);
+                let Some(VertexAttributeValues::Float32(values)) = values else {
+                    return Err(ClothError::UnsupportedMesh(
+                        "no Float32 vertex attribute of that name",
+                    ));
+                };
+                if values.len() != vertices {
+                    return Err(ClothError::UnsupportedMesh(
+                        "the pin attribute and the mesh's vertices differ in number",
+                    ));
+                }
+                let mut pins: Vec<u32> = values
+                    .iter()
+                    .zip(&topology.particle_of)
+                    .filter(|&(&v, _)| v >= 0.5)
+                    .filter_map(|(_, &p)| p)
+                    .collect();
+                pins.sort_unstable();
+                pins.dedup();
+                pins
+            }
+        })
+    }
+}
+
+/// A `Float32` vertex attribute named `"Cloth_Pin"` for
+/// [`MeshClothBuilder::pin_attribute`]: 1 pins a vertex's particle, 0
+/// leaves it free.
+pub const ATTRIBUTE_PIN: MeshVertexAttribute =
+    MeshVertexAttribute::new("Cloth_Pin", 0x0c10_7b11_5f1a_2026, VertexFormat::Float32);
+
+#[cfg(test)]
+mod tests {
+    use bevy::asset::RenderAssetUsages;
+    use bevy::math::primitives::Plane3d;
+    use bevy::mesh::{Indices, MeshBuilder, Meshable, PrimitiveTopology};
+
+    use super::*;
+
+    /// A 1 m plane of 15 × 15 vertices in the xz plane.
+    fn plane() -> Mesh {
+        Plane3d::default()
+            .mesh()
+            .size(1.0, 1.0)
+            .subdivisions(13)
+            .build()
+    }
+
+    fn pinned(b: &ClothBundle) -> Vec<u32> {
+        (0..b.particles.len() as u32)
+            .filter(|&p| b.particles.is_pinned(p as usize))
+            .collect()
+    }
+
+    #[test]
+    fn a_plane_mesh_builds_the_grid_builders_cloth() {
+        let mesh = ClothBuilder::from_mesh(&plane()).build().unwrap();
+        let grid = ClothBuilder::new(15, 15).build().unwrap();
+        assert_eq!(mesh.particles.len(), 225);
+        assert_eq!(
+            (
+                mesh.connections.type1_count(),
+                mesh.connections.type2_count()
+            ),
+            (812, 728)
+        );
+        let total = |b: &ClothBundle| b.particles.masses.iter().sum::<f32>();
+        assert!((total(&mesh) - total(&grid)).abs() < 1e-5);
+        assert!((mesh.cloth.area() - 1.0).abs() < 1e-5);
+        assert!((mesh.cloth.spacing() - 1.0 / 14.0).abs() < 0.3 / 14.0);
+        let heavy = ClothBuilder::from_mesh(&plane())
+            .total_mass(2.0)
+            .uniform_mass()
+            .build()
+            .unwrap();
+        assert!((total(&heavy) - 2.0).abs() < 1e-4);
+        assert!((heavy.particles.masses[0] - 2.0 / 225.0).abs() < 1e-6);
+    }
+
+    #[test]
+    fn pins_come_by_vertex_place_colour_and_attribute() {
+        let mut mesh = plane();
+        let Some(VertexAttributeValues::Float32x3(x)) =
+            mesh.attribute(Mesh::ATTRIBUTE_POSITION).cloned()
+        else {
+            panic!("positions")
+        };
+        // The top row (z = −0.5) painted red, the left column (x = −0.5)
+        // flagged in the pin attribute.
+        let red: Vec<[f32; 4]> = x
+            .iter()
+            .map(|p| [if p[2] < -0.49 { 1.0 } else { 0.0 }, 0.0, 0.0, 1.0])
+            .collect();
+        let flag: Vec<f32> = x
+            .iter()
+            .map(|p| if p[0] < -0.49 { 1.0 } else { 0.0 })
+            .collect();
+        mesh.insert_attribute(Mesh::ATTRIBUTE_COLOR, red);
+        mesh.insert_attribute(ATTRIBUTE_PIN, flag);
+        let top = ClothBuilder::from_mesh(&mesh)
+            .pin_painted(0)
+            .build()
+            .unwrap();
+        assert_eq!(pinned(&top).len(), 15);
+        let left = ClothBuilder::from_mesh(&mesh)
+            .pin_attribute("Cloth_Pin")
+            .build()
+            .unwrap();
+        let p = pinned(&left);
+        assert_eq!(p.len(), 15);
+        assert!(
+            p.iter()
+                .all(|&p| left.particles.positions[p as usize].x < -0.49)
+        );
+        let both = ClothBuilder::from_mesh(&mesh)
+            .pin_painted(0)
+            .pin_attribute(ATTRIBUTE_PIN.name)
+            .pin_vertex(224)
+            .pin_where(|rest| rest.length() < 1e-3)
+            .build()
+            .unwrap();
+        // 15 + 15 − 1 shared corner + the far corner + the centre.
+        assert_eq!(pinned(&both).len(), 31);
+        // Placement moves the particles, not which are pinned.
+        let placed = ClothBuilder::from_mesh(&mesh)
+            .position(Vec3::Y)
+            .rotation(Quat::from_rotation_z(1.0))
+            .pin_where(|rest| rest.x < -0.49)
+            .build()
+            .unwrap();
+        assert_eq!(pinned(&placed), p);
+    }
+
+    #[test]
+    fn bad_meshes_and_pins_are_errors() {
+        let empty = Mesh::new(
+            PrimitiveTopology::TriangleList,
+            RenderAssetUsages::default(),
+        )
+        .with_inserted_attribute(Mesh::ATTRIBUTE_POSITION, vec![[0.0f32; 3]; 3]);
+        assert!(matches!(
+            ClothBuilder::from_mesh(&empty).build(),
+            Err(ClothError::DegenerateMesh { .. })
+        ));
+        let no_triangles = empty.clone().with_inserted_indices(Indices::U32(vec![]));
+        assert!(matches!(
+            ClothBuilder::from_mesh(&no_triangles).build(),
+            Err(ClothError::NoTriangles { indices: 0 })
+        ));
+        assert!(matches!(
+            ClothBuilder::from_mesh(&plane()).pin_vertex(225).build(),
+            Err(ClothError::ParticleOutOfRange { index: 225, .. })
+        ));
+        assert!(matches!(
+            ClothBuilder::from_mesh(&plane()).pin_painted(0).build(),
+            Err(ClothError::UnsupportedMesh(_))
+        ));
+        assert!(matches!(
+            ClothBuilder::from_mesh(&plane())
+                .pin_attribute("nope")
+                .build(),
+            Err(ClothError::UnsupportedMesh(_))
+        ));
+        assert!(matches!(
+            ClothBuilder::from_mesh(&plane()).total_mass(-1.0).build(),
+            Err(ClothError::InvalidMass(_))
+        ));
+        assert!(matches!(
+            ClothBuilder::from_mesh(&plane())
+                .position(Vec3::NAN)
+                .build(),
+            Err(ClothError::InvalidPlacement)
+        ));
+        // A vertex no triangle uses cannot be pinned.
+        let mut loose = plane();
+        if let Some(VertexAttributeValues::Float32x3(x)) =
+            loose.attribute_mut(Mesh::ATTRIBUTE_POSITION)
+        {
+            x.push([5.0, 0.0, 0.0]);
+        }
+        assert!(matches!(
+            ClothBuilder::from_mesh(&loose).pin_vertex(225).build(),
+            Err(ClothError::ParticleOutOfRange { index: 225, .. })
+        ));
+    }
+}
