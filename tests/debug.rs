@@ -104,3 +104,32 @@ fn its_key_toggles_it() {
     assert!(!app.world().resource::<ClothDebug>().enabled);
     assert_eq!(drawn(&app), 0);
 }
+
+#[test]
+fn it_draws_a_mesh_cloths_links_and_pins() {
+    let mut app = app();
+    app.add_plugins((
+        AssetPlugin::default(),
+        bevy::mesh::MeshPlugin,
+        bevy::gizmos::GizmoPlugin,
+        ClothDebugPlugin,
+    ));
+    let disc = bevy_cloth::plugin::mesh_cloth::disc_mesh(0.3, 4);
+    let cloth = ClothBuilder::from_mesh(&disc)
+        .position(Vec3::Y)
+        .pin_vertex(0)
+        .build()
+        .unwrap();
+    let links = cloth.connections.type1_count();
+    app.world_mut().spawn(cloth);
+    *app.world_mut().resource_mut::<ClothDebug>() = ClothDebug {
+        enabled: true,
+        grabs: false,
+        contacts: false,
+        colliders: false,
+        ..default()
+    };
+    app.update();
+    // Every Type 1 link and the one pin.
+    assert_eq!(drawn(&app), links + 1);
+}

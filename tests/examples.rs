@@ -12,12 +12,14 @@ use bevy::ecs::schedule::ScheduleLabel;
 use bevy::prelude::*;
 use bevy_cloth::prelude::*;
 
-const WINDOWED: [&str; 5] = [
+const WINDOWED: [&str; 7] = [
     "hanging",
     "tablecloth",
     "sphere",
     "lander_vs_choi",
     "crease",
+    "round_tablecloth",
+    "flag",
 ];
 
 fn source(name: &str) -> String {

@@ -154,9 +154,12 @@ impl MeshClothBuilder {
     }
 
     /// Pins every particle with a vertex whose `Float32` attribute named
-    /// `name` is 0.5 or more. [`ATTRIBUTE_PIN`] is such an attribute; a
-    /// glTF's custom attribute reaches it through
-    /// `GltfPlugin::add_custom_vertex_attribute("_PIN", ATTRIBUTE_PIN)`.
+    /// `name` is 0.5 or more. [`ATTRIBUTE_PIN`] is such an attribute. A
+    /// glTF's custom attribute `_PIN` (painted in Blender, exported as a
+    /// float attribute) reaches it through
+    /// `GltfPlugin::default().add_custom_vertex_attribute("PIN", ATTRIBUTE_PIN)`:
+    /// Bevy's loader matches a custom attribute by its name without the
+    /// leading underscore.
     pub fn pin_attribute(mut self, name: impl Into<String>) -> Self {
         self.pins.push(Pin::Attribute(name.into()));
         self

@@ -169,6 +169,41 @@ impl MeshLayout {
     }
 }
 
+/// A round cloth's mesh: a disc of `radius` m in the xz plane, centred on
+/// the origin and facing +y, of a centre and `rings` rings of 6, 12, 18, …
+/// vertices joined by near-equilateral triangles (see
+/// [`disc`](crate::sim::topology::disc)), with UVs mapping the disc's
+/// bounding square onto `[0, 1]²`. Bevy's `Circle` mesh is a fan of
+/// slivers around one centre vertex; this is the mesh for
+/// [`ClothBuilder::from_mesh`](crate::ClothBuilder::from_mesh).
+///
+/// ```
+/// use bevy_cloth::plugin::mesh_cloth::disc_mesh;
+/// use bevy_cloth::prelude::*;
+/// // A 1.7 m tablecloth with 5 cm between particles: 919 of them.
+/// let cloth = ClothBuilder::from_mesh(&disc_mesh(0.85, 17)).build().unwrap();
+/// assert_eq!(cloth.particles.len(), 1 + 3 * 17 * 18);
+/// ```
+pub fn disc_mesh(radius: f32, rings: u32) -> Mesh {
+    let (positions, indices) = crate::sim::topology::disc(radius, rings);
+    let uvs: Vec<[f32; 2]> = positions
+        .iter()
+        .map(|p| [0.5 + 0.5 * p.x / radius, 0.5 + 0.5 * p.z / radius])
+        .collect();
+    let normals = vec![[0.0, 1.0, 0.0]; positions.len()];
+    Mesh::new(
+        PrimitiveTopology::TriangleList,
+        bevy::asset::RenderAssetUsages::default(),
+    )
+    .with_inserted_attribute(
+        Mesh::ATTRIBUTE_POSITION,
+        positions.iter().map(|p| p.to_array()).collect::<Vec<_>>(),
+    )
+    .with_inserted_attribute(Mesh::ATTRIBUTE_NORMAL, normals)
+    .with_inserted_attribute(Mesh::ATTRIBUTE_UV_0, uvs)
+    .with_inserted_indices(Indices::U32(indices))
+}
+
 /// A mesh's indices as `u32`, `None` for a mesh without indices.
 pub(crate) fn mesh_indices(mesh: &Mesh) -> Option<Vec<u32>> {
     match mesh.try_indices() {
