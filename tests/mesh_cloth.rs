@@ -13,7 +13,7 @@ use bevy_cloth::sim::guard::{GuardState, step_guarded};
 use bevy_cloth::sim::integrate::StepBuffers;
 use bevy_cloth::sim::integrate::implicit::{Hold, SolveContact};
 use bevy_cloth::sim::particles::Particles;
-use bevy_cloth::sim::step::{ContactHook, NoContacts, Substep};
+use bevy_cloth::sim::step::{ContactHook, NoContacts, Substep, step_cloth_with};
 use bevy_cloth::sim::topology::{MeshTopology, disc};
 
 const DT: f32 = 1.0 / 60.0;
@@ -202,4 +202,47 @@ fn an_irregular_disc_drapes_on_a_ball_and_stays() {
             100.0 * worst
         );
     }
+}
+
+/// Conjugate-gradient iterations per backward Euler step of a 36-ring
+/// (3,997-particle) irregular disc held at six rim particles, over 30
+/// steps from rest, with the coarse correction on or off.
+fn iterations(coarse: bool) -> (u32, f32) {
+    let rings = 36;
+    let (mut p, links) = cloth(rings, 1.0, 1.0, 0.25);
+    let rim = p.len() - 6 * rings;
+    for k in 0..6 {
+        p.pin(rim + k * rings);
+    }
+    let mut s = settings(Integrator::BackwardEuler, 1.0 / rings as f32);
+    s.implicit.coarse_grid = coarse;
+    let mut buffers = StepBuffers::default();
+    let mut total = 0;
+    for _ in 0..30 {
+        step_cloth_with(
+            &mut p,
+            &links,
+            &s,
+            &[],
+            &mut buffers,
+            DT,
+            None::<&mut NoContacts>,
+        );
+        total += buffers.implicit.last_iterations;
+    }
+    assert!(p.is_finite());
+    (total, max_strain(links.type1(), &p.positions))
+}
+
+#[test]
+fn the_coarse_correction_cuts_a_mesh_cloths_iterations() {
+    let (with, strain_with) = iterations(true);
+    let (without, strain_without) = iterations(false);
+    eprintln!(
+        "3,997-particle disc, 30 steps: {with} iterations with the coarse correction, {without} without; strain {:.2} % / {:.2} %",
+        100.0 * strain_with,
+        100.0 * strain_without
+    );
+    assert!(5 * with < 3 * without, "{with} vs {without}");
+    assert!((strain_with - strain_without).abs() < 0.01);
 }

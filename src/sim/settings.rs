@@ -131,11 +131,13 @@ pub struct ImplicitParams {
     pub type2_jacobian: Type2Jacobian,
     /// Slack Type 1 stiffness.
     pub slack_stiffness: SlackStiffness,
-    /// Whether the preconditioner adds a coarse-grid correction
+    /// Whether the preconditioner adds a coarse correction
     /// ([`implicit`](crate::sim::integrate::implicit)): it cuts the
-    /// conjugate-gradient iterations of a stiff grid cloth several times
-    /// over (52 → 23 on 15×15 cotton at 1/60 s, 100+ → 34 on 48×48). Grid
-    /// cloths of at least 4×4 only; others solve without it. On by default.
+    /// conjugate-gradient iterations of a stiff cloth several times over
+    /// (52 → 23 on 15×15 cotton at 1/60 s, 100+ → 34 on 48×48; 36 → 17 on
+    /// a 3,997-particle mesh disc). Over grid squares for grid cloths of
+    /// at least 4×4, over groups of linked particles for mesh cloths of at
+    /// least 64 particles; smaller cloths solve without it. On by default.
     pub coarse_grid: bool,
     /// Whether a grid cloth of at least 2048 particles shares the passes
     /// of its conjugate gradient with a helper thread

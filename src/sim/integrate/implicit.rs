@@ -1,10 +1,14 @@
 //! Implicit integrators: linearised backward Euler (Baraff–Witkin, MODEL.md
 //! §6.5) and Choi & Ko's second-order BDF (§6.6), solved matrix-free by a
 //! filtered, preconditioned conjugate gradient: block-Jacobi, plus a
-//! coarse-grid correction for grid cloths (`coarse.rs`,
+//! coarse correction over aggregates of particles: grid squares for grid
+//! cloths (`coarse.rs`), groups grown over the links for other cloths
+//! (`mesh_coarse.rs`;
 //! [`ImplicitParams::coarse_grid`](crate::sim::settings::ImplicitParams::coarse_grid)).
 //! The operator is stored by grid offset, so its product runs as SIMD loops
-//! (`operator.rs`). From 2048 particles the iterations are shared with a
+//! (`operator.rs`); the pairs of other cloths run as one list over the
+//! vector copied particle by particle. From 2048 particles the iterations
+//! of a grid cloth are shared with a
 //! helper thread, each running every pass on half the particles
 //! (`halves.rs`, `crate::sim::team`;
 //! [`ImplicitParams::helper_thread`](crate::sim::settings::ImplicitParams::helper_thread)),
@@ -32,6 +36,7 @@ use bevy::math::Vec3;
 
 use coarse::Coarse;
 use halves::Halves;
+use mesh_coarse::MeshCoarse;
 
 pub use contacts::{ContactBuffers, Hold, SolveContact};
 
@@ -58,6 +63,10 @@ pub struct ImplicitBuffers {
     coarse: Coarse,
     /// Whether `coarse` holds this step's factored operator.
     coarse_active: bool,
+    /// The coarse correction of a cloth that is not a grid.
+    mesh_coarse: MeshCoarse,
+    /// Whether `mesh_coarse` holds this step's factored operator.
+    mesh_coarse_active: bool,
     force: Vec<Vec3>,
     // The solver's vectors, component by component (see `operator`).
     rhs: Soa,
@@ -173,6 +182,8 @@ fn pcg_inner(params: &ImplicitParams, buffers: &mut ImplicitBuffers) -> (u32, f3
         warm,
         coarse,
         coarse_active,
+        mesh_coarse,
+        mesh_coarse_active,
         last_threads: threads,
         choice,
         share,
@@ -180,7 +191,8 @@ fn pcg_inner(params: &ImplicitParams, buffers: &mut ImplicitBuffers) -> (u32, f3
     } = buffers;
     *threads = 1;
     let mut coarse = coarse_active.then_some(coarse);
-    precondition(op, coarse.as_deref_mut(), rhs, y);
+    let mut mesh = mesh_coarse_active.then_some(mesh_coarse);
+    precondition(op, coarse.as_deref_mut(), mesh.as_deref_mut(), rhs, y);
     let delta0 = dot(rhs, y);
     if !(delta0 > 0.0 && delta0.is_finite()) {
         dv.zero();
@@ -197,7 +209,7 @@ fn pcg_inner(params: &ImplicitParams, buffers: &mut ImplicitBuffers) -> (u32, f3
                 *ri = bi - qi;
             }
         }
-        precondition(op, coarse.as_deref_mut(), r, y);
+        precondition(op, coarse.as_deref_mut(), mesh.as_deref_mut(), r, y);
         delta = dot(r, y);
     }
     if delta.is_nan() || delta >= delta0 {
@@ -205,7 +217,7 @@ fn pcg_inner(params: &ImplicitParams, buffers: &mut ImplicitBuffers) -> (u32, f3
         dv.zero();
         r.copy_from(rhs);
         if tried_warm {
-            precondition(op, coarse.as_deref_mut(), r, y);
+            precondition(op, coarse.as_deref_mut(), mesh.as_deref_mut(), r, y);
         }
         delta = delta0;
     }
@@ -250,7 +262,7 @@ fn pcg_inner(params: &ImplicitParams, buffers: &mut ImplicitBuffers) -> (u32, f3
                 *ri -= alpha * qi;
             }
         }
-        precondition(op, coarse.as_deref_mut(), r, y);
+        precondition(op, coarse.as_deref_mut(), mesh.as_deref_mut(), r, y);
         let next = dot(r, y);
         let beta = (next / delta) as f32;
         for (d, y) in d.0.iter_mut().zip(&y.0) {
@@ -272,9 +284,18 @@ fn pcg_inner(params: &ImplicitParams, buffers: &mut ImplicitBuffers) -> (u32, f3
 /// compiled for the SIMD width of) each build of [`pcg`]: as a closure it
 /// ran as SSE and took 14 % of a 64×64 frame.
 #[inline(always)]
-fn precondition(op: &Operator, coarse: Option<&mut Coarse>, r: &Soa, y: &mut Soa) {
+fn precondition(
+    op: &Operator,
+    coarse: Option<&mut Coarse>,
+    mesh: Option<&mut MeshCoarse>,
+    r: &Soa,
+    y: &mut Soa,
+) {
     op.precondition(r, y);
     if let Some(c) = coarse {
+        c.add(r, y, &op.free);
+    }
+    if let Some(c) = mesh {
         c.add(r, y, &op.free);
     }
 }
@@ -358,6 +379,7 @@ fn build(dynamics: &Dynamics, w: &[f32], alpha: f32, beta: f32, buffers: &mut Im
         streams,
         op,
         coarse,
+        mesh_coarse,
         ..
     } = buffers;
     let (blocks, streams) = (&blocks[..], &*streams);
@@ -371,23 +393,39 @@ fn build(dynamics: &Dynamics, w: &[f32], alpha: f32, beta: f32, buffers: &mut Im
             (alpha, beta),
         )
     };
+    let connections = dynamics.connections;
     let mut build_coarse = move || {
-        s.implicit.coarse_grid && coarse.begin(columns, w, mass_scale) && {
+        if !s.implicit.coarse_grid {
+            return (false, false);
+        }
+        if columns == 0 {
+            let mesh = mesh_coarse.begin(connections, w, mass_scale) && {
+                mesh_coarse.add_pairs(w.len(), (blocks, streams.blocks()), (alpha, beta));
+                for (i, c) in &extra {
+                    mesh_coarse.add_diagonal(*i as usize, c);
+                }
+                mesh_coarse.finish()
+            };
+            return (false, mesh);
+        }
+        let grid = coarse.begin(columns, w, mass_scale) && {
             coarse.add_pairs(w.len(), (blocks, streams.blocks()), (alpha, beta));
             for (i, c) in &extra {
                 coarse.add_diagonal(*i as usize, c);
             }
             coarse.finish()
-        }
+        };
+        (grid, false)
     };
     // The coarse grid's assembly and factorisation need only the blocks:
     // on the helper, when the solve is to share with it, it is awake.
-    let ((), active) = if share {
+    let ((), (grid, mesh)) = if share {
         team::both(build, build_coarse)
     } else {
         (build(), build_coarse())
     };
-    buffers.coarse_active = active;
+    buffers.coarse_active = grid;
+    buffers.mesh_coarse_active = mesh;
 }
 
 /// Assembles the step at `(x, v)` (`w` as for [`linearise`]), holds this
@@ -651,4 +689,5 @@ mod tests;
 mod coarse;
 pub mod contacts;
 mod halves;
+mod mesh_coarse;
 mod operator;

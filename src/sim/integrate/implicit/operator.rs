@@ -25,7 +25,7 @@
 
 use std::ops::Range;
 
-use bevy::math::{Mat3, Vec3};
+use bevy::math::{Mat3, Vec3, Vec3A};
 
 #[cfg(test)]
 use super::coarse::Coarse;
@@ -244,6 +244,10 @@ pub(super) struct Operator {
     precond: SymBlocks,
     /// Products of one stream.
     tmp: Soa,
+    /// The vector being multiplied, particle by particle, and the pair
+    /// list's sums, for the pairs outside the streams.
+    gathered: Vec<Vec3A>,
+    sums: Vec<Vec3A>,
 }
 
 impl Operator {
@@ -477,13 +481,31 @@ impl Operator {
     }
 
     /// Adds the pairs outside the streams and the [`extra`](Self::extra)
-    /// diagonal blocks to `out = A d`, filtered.
-    fn apply_others(&self, d: &Soa, out: &mut Soa) {
-        for &([p, q], c) in &self.others {
-            let (p, q) = (p as usize, q as usize);
-            let t = sym_times(&c, d.get(q) - d.get(p));
-            out.set(p, out.get(p) - self.free[p] * t);
-            out.set(q, out.get(q) + self.free[q] * t);
+    /// diagonal blocks to `out = A d`, filtered. The pairs (every pair of
+    /// a mesh cloth) run over the vector copied particle by particle, so
+    /// each end is one load and one store rather than three.
+    fn apply_others(&mut self, d: &Soa, out: &mut Soa) {
+        if !self.others.is_empty() {
+            let n = self.mass.len();
+            let [dx, dy, dz] = &d.0;
+            self.gathered.clear();
+            self.gathered
+                .extend((0..n).map(|i| Vec3A::new(dx[i], dy[i], dz[i])));
+            self.sums.clear();
+            self.sums.resize(n, Vec3A::ZERO);
+            let (x, sums) = (&self.gathered, &mut self.sums);
+            for &([p, q], c) in &self.others {
+                let (p, q) = (p as usize, q as usize);
+                let t = sym_times_a(&c, x[q] - x[p]);
+                sums[p] -= t;
+                sums[q] += t;
+            }
+            let [ox, oy, oz] = &mut out.0;
+            for (i, (t, &f)) in self.sums.iter().zip(&self.free).enumerate() {
+                ox[i] += f * t.x;
+                oy[i] += f * t.y;
+                oz[i] += f * t.z;
+            }
         }
         for &(i, c) in &self.extra {
             let i = i as usize;
@@ -622,6 +644,13 @@ fn sym_times(c: &[f32; 6], v: Vec3) -> Vec3 {
         xy * v.x + yy * v.y + yz * v.z,
         xz * v.x + yz * v.y + zz * v.z,
     )
+}
+
+/// `C v` for a symmetric `C`, on aligned vectors.
+#[inline(always)]
+fn sym_times_a(c: &[f32; 6], v: Vec3A) -> Vec3A {
+    let [xx, yy, zz, xy, xz, yz] = *c;
+    Vec3A::new(xx, xy, xz) * v.x + Vec3A::new(xy, yy, yz) * v.y + Vec3A::new(xz, yz, zz) * v.z
 }
 
 /// Particles of one AVX-512 vector, and the zeros after every stream.
