@@ -361,13 +361,13 @@ fn aggregate(connections: &Connections, n: usize, out: &mut Vec<u32>) -> usize {
     let mut into: Vec<u32> = (0..sizes.len() as u32).collect();
     for p in 0..n {
         let a = out[p] as usize;
-        if sizes[a] * 3 < target && into[a] == a as u32 {
-            if let Some(&q) = neighbours(p)
+        if sizes[a] * 3 < target
+            && into[a] == a as u32
+            && let Some(&q) = neighbours(p)
                 .iter()
                 .find(|&&q| sizes[out[q as usize] as usize] * 3 >= target)
-            {
-                into[a] = out[q as usize];
-            }
+        {
+            into[a] = out[q as usize];
         }
     }
     // Renumber in order of first appearance.
