@@ -6,8 +6,8 @@
 mod common;
 
 use bevy::ecs::message::Messages;
-use bevy::math::primitives::Sphere;
-use bevy::mesh::{Meshable, VertexAttributeValues};
+use bevy::math::primitives::{Circle, Sphere};
+use bevy::mesh::{MeshBuilder, Meshable, VertexAttributeValues};
 use bevy::prelude::*;
 use bevy_cloth::plugin::events::ClothDiverged;
 use bevy_cloth::prelude::*;
@@ -434,4 +434,76 @@ fn creases_on_a_mesh_cloth_are_ignored_and_nothing_breaks() {
         )]));
     app.update();
     assert_eq!(*app.world().get::<ClothConnections>(e).unwrap(), before);
+}
+
+#[test]
+fn one_triangle_and_a_fan_of_slivers_are_cloths_too() {
+    let mut app = app_with_meshes();
+    // One triangle, pinned at a corner; Bevy's circle, a fan of 32 slivers
+    // around one centre vertex, pinned at the centre.
+    let triangle = triangle_mesh(
+        &[
+            Vec3::ZERO,
+            Vec3::new(0.3, 0.0, 0.0),
+            Vec3::new(0.0, 0.0, 0.3),
+        ],
+        vec![0, 2, 1],
+    );
+    let fan = Circle::new(0.4).mesh().resolution(32).build();
+    let cloths = [
+        ClothBuilder::from_mesh(&triangle)
+            .position(Vec3::Y)
+            .pin_vertex(0)
+            .build()
+            .unwrap(),
+        ClothBuilder::from_mesh(&fan)
+            .rotation(Quat::from_rotation_x(-std::f32::consts::FRAC_PI_2))
+            .position(Vec3::Y)
+            .pin_where(|rest| rest.length() < 1e-3)
+            .build()
+            .unwrap(),
+    ];
+    let entities: Vec<Entity> = cloths.map(|c| app.world_mut().spawn(c).id()).to_vec();
+    for _ in 0..120 {
+        app.update();
+    }
+    for e in entities {
+        let p = particles(&app, e);
+        assert!(p.is_finite());
+        assert!(strain(&app, e) < 0.05, "strain {}", strain(&app, e));
+        // The free corners hang below the pin.
+        let lowest = p.positions.iter().map(|x| x.y).fold(f32::MAX, f32::min);
+        assert!(lowest < 0.8, "lowest at {lowest} m");
+        assert!(live(&app, e, Mesh::ATTRIBUTE_POSITION).len() >= 3);
+    }
+}
+
+#[test]
+fn a_mesh_cloth_fed_nan_and_flicked_at_50_m_s_recovers() {
+    let mut app = app();
+    let cloth = ClothBuilder::from_mesh(&disc_mesh(10, 0.5, 0.5))
+        .position(Vec3::Y)
+        .pin_vertex(0)
+        .build()
+        .unwrap();
+    let pin = cloth.particles.positions[0];
+    let e = app.world_mut().spawn(cloth).id();
+    for k in 0..120 {
+        if k == 10 {
+            let mut p = app.world_mut().get_mut::<ClothParticles>(e).unwrap();
+            p.positions[40] = Vec3::NAN;
+            p.velocities[41] = Vec3::splat(f32::INFINITY);
+        }
+        if k == 40 {
+            let mut p = app.world_mut().get_mut::<ClothParticles>(e).unwrap();
+            let n = p.len();
+            for v in &mut p.velocities[n - 60..] {
+                *v = Vec3::new(50.0, 20.0, 0.0);
+            }
+        }
+        app.update();
+        assert!(particles(&app, e).is_finite(), "step {k}");
+    }
+    assert!(strain(&app, e) < 0.05, "strain {}", strain(&app, e));
+    assert_eq!(particles(&app, e).positions[0], pin);
 }
