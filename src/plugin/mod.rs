@@ -30,6 +30,7 @@ pub mod picking;
 pub mod pose;
 pub mod schedule;
 pub mod systems;
+pub mod tether;
 pub mod wind;
 
 use bevy::app::{App, FixedUpdate, Plugin};
@@ -151,7 +152,8 @@ impl Plugin for ClothPlugin {
             );
         app.add_observer(anchor::stop_on_remove)
             .add_observer(crease::remove_creases)
-            .register_type::<crease::ClothCreases>();
+            .register_type::<crease::ClothCreases>()
+            .register_type::<tether::ClothTethers>();
         mesh::configure(app);
         collision::configure(app);
         diagnostics::configure(app);

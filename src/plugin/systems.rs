@@ -32,6 +32,7 @@ use crate::plugin::components::{ClothForces, ClothStats};
 use crate::plugin::events::ClothDiverged;
 use crate::plugin::events::{ClothAtRest, ClothWoke, RestChange};
 use crate::plugin::interaction::ClothGrabs;
+use crate::plugin::tether::{ClothTethers, TetherScratch};
 use crate::sim::guard::step_guarded;
 
 /// Checks what the step indexes so that user edits can never make it panic:
@@ -143,6 +144,7 @@ pub(crate) struct StepQuery {
         &'static ClothSelfCollision,
         &'static mut SelfCollisionScratch,
     )>,
+    tethers: Option<(&'static ClothTethers, &'static mut TetherScratch)>,
 }
 
 /// Bevy's compute task pool as the [`Workers`] a step spreads its force
@@ -250,18 +252,27 @@ pub(crate) fn step_cloths(
             .as_mut()
             .filter(|(s, _)| s.thickness.is_finite() && s.thickness > 0.0)
             .map(|(s, buffers)| (item.cloth, s.thickness, &mut buffers.0));
-        let helper = settings.implicit.helper_thread;
-        let mut hook =
-            (!scratch.near.is_empty() || self_collision.is_some()).then(|| SceneContacts {
-                scene: &scene,
-                near: &scratch.near,
-                thickness,
-                helper,
-                in_solve: item.collision.is_none_or(|c| c.in_solve),
-                self_collision,
-                masked: &mut scratch.masked,
-                counts: Default::default(),
+        let tethers = item
+            .tethers
+            .as_mut()
+            .filter(|(t, _)| t.slack.is_finite() && t.slack >= 1.0)
+            .map(|(t, made)| {
+                made.0.update(connections, &item.particles.inverse_masses);
+                (&made.0, t.slack)
             });
+        let helper = settings.implicit.helper_thread;
+        let contacts = !scratch.near.is_empty() || self_collision.is_some();
+        let mut hook = (contacts || tethers.is_some()).then(|| SceneContacts {
+            scene: &scene,
+            near: &scratch.near,
+            thickness,
+            helper,
+            in_solve: item.collision.is_none_or(|c| c.in_solve),
+            self_collision,
+            tethers,
+            masked: &mut scratch.masked,
+            counts: Default::default(),
+        });
         let started = Instant::now();
         let step = step_guarded(
             &mut item.particles,

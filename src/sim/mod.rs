@@ -7,7 +7,8 @@
 //! divergence guard around it ([`guard`]), adaptive substeps
 //! ([`adaptive`]), the narrow phase and contacts ([`collision`]), creases'
 //! geometry ([`crease`]), wind on faces ([`wind`]), the particles and links of
-//! a cloth of any shape ([`topology`]), and the helper thread
+//! a cloth of any shape ([`topology`]), tethers to the pins ([`tether`]), and
+//! the helper thread
 //! and worker pool that large steps share their work with (`team`,
 //! [`workers`]).
 //!
@@ -61,6 +62,7 @@ pub mod settings;
 pub(crate) mod soa;
 pub mod step;
 pub(crate) mod team;
+pub mod tether;
 pub mod topology;
 pub mod wind;
 pub mod workers;

@@ -56,6 +56,7 @@ use crate::sim::integrate::implicit::{Hold, SolveContact};
 use crate::sim::particles::Particles;
 use crate::sim::step::{ContactHook, Substep};
 use crate::sim::team::both;
+use crate::sim::tether::Tethers;
 
 /// A triangle mesh shared between colliders (opaque to reflection).
 #[derive(Clone, Debug, Reflect)]
@@ -417,6 +418,9 @@ pub struct SceneContacts<'a> {
     /// Whether the implicit solve holds contacts
     /// ([`ClothCollision::in_solve`]).
     pub in_solve: bool,
+    /// The cloth's tethers and their slack, applied before the contacts
+    /// ([`ClothTethers`](crate::plugin::tether::ClothTethers)).
+    pub tethers: Option<(&'a Tethers, f32)>,
     /// Scratch: the inverse masses with the held particles' zeroed.
     pub masked: &'a mut Vec<f32>,
     /// Tests and contacts so far: against colliders, with itself.
@@ -444,6 +448,9 @@ impl ContactHook for SceneContacts<'_> {
         } else {
             w
         };
+        if let Some((tethers, slack)) = self.tethers {
+            tethers.apply(x, v, w, slack);
+        }
         let own = self
             .self_collision
             .as_mut()
