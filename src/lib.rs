@@ -112,6 +112,7 @@ pub mod prelude {
     pub use crate::plugin::events::{
         ClothAtRest, ClothDiverged, ClothGrabbed, ClothReleased, ClothWoke,
     };
+    pub use crate::plugin::frame::{ClothInertia, TeleportCloth};
     pub use crate::plugin::interaction::{ClothGrabs, GrabMode};
     pub use crate::plugin::mesh::ClothMeshSettings;
     pub use crate::plugin::mesh_builder::{ATTRIBUTE_PIN, MeshClothBuilder};

@@ -18,6 +18,7 @@ pub mod crease;
 pub mod debug;
 pub mod diagnostics;
 pub mod events;
+pub mod frame;
 pub mod interaction;
 pub mod material;
 pub mod mesh;
@@ -126,6 +127,7 @@ impl Plugin for ClothPlugin {
                     // condition, which costs no hand-off to a pool thread.
                     (
                         material::apply_density.run_if(material::materials_changed),
+                        frame::carry_with_frames.run_if(any_with_component::<frame::ClothInertia>),
                         anchor::follow_anchors.run_if(any_with_component::<ClothAnchors>),
                     )
                         .chain()
@@ -153,7 +155,8 @@ impl Plugin for ClothPlugin {
         app.add_observer(anchor::stop_on_remove)
             .add_observer(crease::remove_creases)
             .register_type::<crease::ClothCreases>()
-            .register_type::<tether::ClothTethers>();
+            .register_type::<tether::ClothTethers>()
+            .register_type::<frame::ClothInertia>();
         mesh::configure(app);
         collision::configure(app);
         diagnostics::configure(app);

@@ -7,10 +7,9 @@
 //! divergence guard around it ([`guard`]), adaptive substeps
 //! ([`adaptive`]), the narrow phase and contacts ([`collision`]), creases'
 //! geometry ([`crease`]), wind on faces ([`wind`]), the particles and links of
-//! a cloth of any shape ([`topology`]), tethers to the pins ([`tether`]), and
-//! the helper thread
-//! and worker pool that large steps share their work with (`team`,
-//! [`workers`]).
+//! a cloth of any shape ([`topology`]), tethers to the pins ([`tether`]), a
+//! moving frame ([`frame`]), and the helper thread and worker pool that
+//! large steps share their work with (`team`, [`workers`]).
 //!
 //! What it may import: [`bevy::math`], [`bevy::reflect`] (the types derive
 //! `Reflect` so an inspector can show them), [`crate::error`] and
@@ -52,6 +51,7 @@ pub mod adaptive;
 pub mod collision;
 pub mod connections;
 pub mod crease;
+pub mod frame;
 pub mod grid;
 pub mod guard;
 pub mod integrate;

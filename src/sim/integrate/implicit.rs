@@ -137,6 +137,25 @@ impl ImplicitBuffers {
         }
     }
 
+    /// Moves the BDF2 history of the particles `i` for which `moves(i)` as
+    /// `carry` moves them (positions carried, velocities turned: a moving
+    /// frame's carry or a teleport), so that the next BDF2 step finds it
+    /// where the particles are.
+    pub fn carry_history(
+        &mut self,
+        carry: &crate::sim::frame::Carry,
+        moves: impl Fn(usize) -> bool,
+    ) {
+        if self.history.is_none() {
+            return;
+        }
+        for i in (0..self.prev_x.len()).filter(|&i| moves(i)) {
+            self.prev_x[i] = carry.point(self.prev_x[i]);
+            self.expected_x[i] = carry.point(self.expected_x[i]);
+            self.prev_v[i] = carry.vector(self.prev_v[i]);
+        }
+    }
+
     /// Forgets the BDF2 history, so the next BDF2 step is backward Euler,
     /// and the contacts' holds.
     pub fn reset_history(&mut self) {
