@@ -127,3 +127,64 @@ fn a_cape_on_a_body_spinning_at_20_rad_s_stays_within_10_percent() {
         assert!(welded < 0.005, "{integrator:?}: {welded}");
     }
 }
+
+/// The deepest (m) any cape particle gets inside a 0.2 m body capsule
+/// (axis vertical, 1.2 m long) over 1 s of the body backing into its cape at
+/// `speed` m/s, with or without the capsule as a collider.
+fn backed_into(speed: f32, collider: bool) -> f32 {
+    let mut app = app();
+    let body = app
+        .world_mut()
+        .spawn(Transform::from_xyz(0.0, 1.0, 0.0))
+        .id();
+    // The collar 0.25 m behind the axis, just outside the capsule.
+    let cape = ClothBuilder::new(10, 16)
+        .size(0.5, 0.8)
+        .rotation(Quat::from_rotation_x(std::f32::consts::FRAC_PI_2))
+        .position(Vec3::new(0.0, 1.1, -0.25))
+        .build()
+        .unwrap();
+    let mut anchors = ClothAnchors::default();
+    for i in 0..10 {
+        anchors = anchors.with(i, body);
+    }
+    let cape = app.world_mut().spawn((cape, anchors)).id();
+    if collider {
+        app.world_mut()
+            .entity_mut(body)
+            .insert(ClothCollider::capsule(0.2, 0.4));
+    }
+    for _ in 0..30 {
+        app.update();
+    }
+    let mut deepest = 0.0f32;
+    for k in 0..60 {
+        let z = -speed * (k + 1) as f32 / 60.0;
+        app.world_mut()
+            .get_mut::<Transform>(body)
+            .unwrap()
+            .translation = Vec3::new(0.0, 1.0, z);
+        app.update();
+        let p = particles(&app, cape);
+        assert!(p.is_finite());
+        for x in &p.positions {
+            // Distance from the capsule's axis segment (y from 0.6 to 1.4).
+            let axis = Vec3::new(0.0, x.y.clamp(0.6, 1.4), z);
+            deepest = deepest.max(0.2 - x.distance(axis));
+        }
+    }
+    deepest
+}
+
+#[test]
+fn a_body_capsule_keeps_the_cape_outside_at_10_m_s() {
+    let kept = backed_into(10.0, true);
+    let through = backed_into(10.0, false);
+    eprintln!(
+        "body backing into its cape at 10 m/s: deepest {:.1} mm inside the capsule with it as a collider, {:.0} mm without",
+        1000.0 * kept,
+        1000.0 * through
+    );
+    assert!(kept < 0.01, "{kept} m inside");
+    assert!(through > 0.05, "{through}");
+}
