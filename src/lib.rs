@@ -122,6 +122,7 @@ pub mod prelude {
     #[cfg(feature = "picking")]
     pub use crate::plugin::picking::{ClothPicking, ClothPointer};
     pub use crate::plugin::schedule::ClothPause;
+    pub use crate::plugin::skin::{ATTRIBUTE_FREEDOM, ClothSkin};
     pub use crate::plugin::tether::ClothTethers;
     pub use crate::plugin::wind::ClothWind;
     pub use crate::sim::collision::TriMesh;

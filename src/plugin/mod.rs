@@ -30,6 +30,7 @@ pub mod panel;
 pub mod picking;
 pub mod pose;
 pub mod schedule;
+pub mod skin;
 pub mod systems;
 pub mod tether;
 pub mod wind;
@@ -129,6 +130,7 @@ impl Plugin for ClothPlugin {
                         material::apply_density.run_if(material::materials_changed),
                         frame::carry_with_frames.run_if(any_with_component::<frame::ClothInertia>),
                         anchor::follow_anchors.run_if(any_with_component::<ClothAnchors>),
+                        skin::follow_skins.run_if(any_with_component::<skin::ClothSkin>),
                     )
                         .chain()
                         .in_set(Prepare),
@@ -145,6 +147,7 @@ impl Plugin for ClothPlugin {
                     (
                         anchor::snap_anchors.run_if(any_with_component::<ClothAnchors>),
                         interaction::snap_grabs.run_if(interaction::grabs_active),
+                        skin::limit_skins.run_if(any_with_component::<skin::ClothSkin>),
                         systems::finish_step,
                         schedule::consume_step.run_if(schedule::paused),
                     )

@@ -8,8 +8,9 @@
 //! ([`adaptive`]), the narrow phase and contacts ([`collision`]), creases'
 //! geometry ([`crease`]), wind on faces ([`wind`]), the particles and links of
 //! a cloth of any shape ([`topology`]), tethers to the pins ([`tether`]), a
-//! moving frame ([`frame`]), and the helper thread and worker pool that
-//! large steps share their work with (`team`, [`workers`]).
+//! moving frame ([`frame`]), a skinned mesh's animation ([`skin`]), and the
+//! helper thread and worker pool that large steps share their work with
+//! (`team`, [`workers`]).
 //!
 //! What it may import: [`bevy::math`], [`bevy::reflect`] (the types derive
 //! `Reflect` so an inspector can show them), [`crate::error`] and
@@ -59,6 +60,7 @@ pub mod material;
 pub mod model;
 pub mod particles;
 pub mod settings;
+pub mod skin;
 pub(crate) mod soa;
 pub mod step;
 pub(crate) mod team;

@@ -1,0 +1,188 @@
+//! A cloth worn on a hand-built two-bone skeleton: CPU skinning against
+//! Bevy's formula, kinematic particles, and the max distance under a
+//! 20 rad/s spin.
+
+mod common;
+
+use bevy::mesh::{Indices, PrimitiveTopology, VertexAttributeValues};
+use bevy::prelude::*;
+use bevy_cloth::plugin::skin::SkinTargets;
+use bevy_cloth::prelude::*;
+use common::{app, particles};
+
+const COLS: u32 = 5;
+const ROWS: u32 = 9;
+
+/// A 0.4 m × 0.8 m ribbon behind the body from y = 1.6 m down, skinned
+/// to an upper bone (its top half) blending into the root (its bottom
+/// half); freedom 0 on the top row, 0.5 on the next four, 1 below.
+fn ribbon() -> Mesh {
+    let mut positions = Vec::new();
+    let (mut joints, mut weights, mut freedom) = (Vec::new(), Vec::new(), Vec::new());
+    for j in 0..ROWS {
+        for i in 0..COLS {
+            positions.push([-0.2 + 0.1 * i as f32, 1.6 - 0.1 * j as f32, -0.1]);
+            let t = (j as f32 - 4.0).max(0.0) / 8.0;
+            joints.push([1u16, 0, 0, 0]);
+            weights.push([1.0 - t, t, 0.0, 0.0]);
+            freedom.push(match j {
+                0 => 0.0f32,
+                1..=4 => 0.5,
+                _ => 1.0,
+            });
+        }
+    }
+    let mut indices = Vec::new();
+    for j in 0..ROWS - 1 {
+        for i in 0..COLS - 1 {
+            let a = j * COLS + i;
+            let (b, c, d) = (a + 1, a + 1 + COLS, a + COLS);
+            indices.extend([a, d, c, a, c, b]);
+        }
+    }
+    Mesh::new(PrimitiveTopology::TriangleList, default())
+        .with_inserted_attribute(Mesh::ATTRIBUTE_POSITION, positions)
+        .with_inserted_attribute(
+            Mesh::ATTRIBUTE_JOINT_INDEX,
+            VertexAttributeValues::Uint16x4(joints),
+        )
+        .with_inserted_attribute(Mesh::ATTRIBUTE_JOINT_WEIGHT, weights)
+        .with_inserted_attribute(ATTRIBUTE_FREEDOM, freedom)
+        .with_inserted_indices(Indices::U32(indices))
+}
+
+/// The skeleton (a root and an upper bone 1.2 m up, its child) and the
+/// worn ribbon with max distance `max` m.
+fn wear(app: &mut App, max: f32) -> (Entity, Entity, Entity) {
+    let root = app.world_mut().spawn(Transform::default()).id();
+    let upper = app
+        .world_mut()
+        .spawn((Transform::from_xyz(0.0, 1.2, 0.0), ChildOf(root)))
+        .id();
+    let mesh = ribbon();
+    let cloth = ClothBuilder::from_mesh(&mesh).build().unwrap();
+    let binds = [
+        Mat4::IDENTITY,
+        Mat4::from_translation(Vec3::new(0.0, -1.2, 0.0)),
+    ];
+    let layout = cloth.cloth.mesh().unwrap().clone();
+    let skin = ClothSkin::from_mesh(
+        &mesh,
+        &layout,
+        (vec![upper, root], &binds),
+        ATTRIBUTE_FREEDOM.name,
+        max,
+    )
+    .unwrap();
+    let e = app.world_mut().spawn((cloth, skin)).id();
+    (root, upper, e)
+}
+
+/// Bevy's skinning of particle `p`: `(Σ wₖ Gₖ Bₖ) rest` with the joints'
+/// propagated `GlobalTransform`s.
+fn bevy_skinned(app: &App, e: Entity, p: usize) -> Vec3 {
+    let skin = app.world().get::<ClothSkin>(e).unwrap();
+    let influence = skin.influences[p];
+    let mut m = Mat4::ZERO;
+    for (&j, &w) in influence.joints.iter().zip(&influence.weights) {
+        let joint = skin.joints[j as usize];
+        let g = app
+            .world()
+            .get::<GlobalTransform>(joint)
+            .unwrap()
+            .to_matrix();
+        m += g * Mat4::from(skin.inverse_bindposes[j as usize]) * w;
+    }
+    m.transform_point3(skin.rest[p])
+}
+
+#[test]
+fn cpu_skinning_matches_bevys_formula_in_the_same_frame() {
+    let mut app = app();
+    let (root, upper, e) = wear(&mut app, 0.1);
+    for k in 0..5 {
+        let a = 0.3 * k as f32;
+        *app.world_mut().get_mut::<Transform>(root).unwrap() =
+            Transform::from_xyz(1.0, 0.1 * a, 0.0).with_rotation(Quat::from_rotation_y(a));
+        app.world_mut()
+            .get_mut::<Transform>(upper)
+            .unwrap()
+            .rotation = Quat::from_rotation_z(0.5 * a);
+        app.update();
+        let targets = app.world().get::<SkinTargets>(e).unwrap();
+        for p in 0..(COLS * ROWS) as usize {
+            let want = bevy_skinned(&app, e, p);
+            assert!(
+                targets.positions[p].distance(want) < 1e-5,
+                "frame {k}, particle {p}: {} vs {want}",
+                targets.positions[p]
+            );
+        }
+    }
+}
+
+#[test]
+fn kinematic_particles_follow_the_animation_exactly() {
+    let mut app = app();
+    let (_, upper, e) = wear(&mut app, 0.1);
+    for k in 0..90 {
+        let a = 0.6 * (k as f32 * 0.2).sin();
+        app.world_mut()
+            .get_mut::<Transform>(upper)
+            .unwrap()
+            .rotation = Quat::from_rotation_x(a);
+        app.update();
+        let targets = app.world().get::<SkinTargets>(e).unwrap().positions.clone();
+        let p = particles(&app, e);
+        assert!(p.is_finite());
+        for (i, target) in targets.iter().enumerate().take(COLS as usize) {
+            assert_eq!(p.positions[i], *target, "step {k}, particle {i}");
+            assert!(p.is_pinned(i));
+        }
+    }
+}
+
+/// The farthest (m) a particle of freedom 0.5 and one of freedom 1 get
+/// from their animated positions while the skeleton spins up to 20 rad/s
+/// in 0.25 s and spins on for 1.75 s.
+fn spin(max: f32) -> (f32, f32) {
+    let mut app = app();
+    let (root, _, e) = wear(&mut app, max);
+    let (mut half, mut free) = (0.0f32, 0.0f32);
+    let mut angle = 0.0f32;
+    for k in 0..120 {
+        angle += 20.0 * (k as f32 / 15.0).min(1.0) / 60.0;
+        app.world_mut().get_mut::<Transform>(root).unwrap().rotation = Quat::from_rotation_y(angle);
+        app.update();
+        let targets = app.world().get::<SkinTargets>(e).unwrap().positions.clone();
+        let p = particles(&app, e);
+        assert!(p.is_finite(), "step {k}");
+        for (i, (x, t)) in p.positions.iter().zip(&targets).enumerate() {
+            let row = i as u32 / COLS;
+            let d = x.distance(*t);
+            if (1..=4).contains(&row) {
+                half = half.max(d);
+            } else if row > 4 {
+                free = free.max(d);
+            }
+        }
+    }
+    (half, free)
+}
+
+#[test]
+fn the_max_distance_holds_under_a_20_rad_s_spin() {
+    let (held, free) = spin(0.1);
+    let (unheld, _) = spin(0.0);
+    eprintln!(
+        "20 rad/s: freedom-0.5 particles ≤ {:.1} mm from their animated place with a 0.1 m max distance, {:.1} mm without; free ones {:.1} mm",
+        1000.0 * held,
+        1000.0 * unheld,
+        1000.0 * free
+    );
+    assert!(held <= 0.05 + 1e-4, "{held}");
+    assert!(
+        unheld > 0.06,
+        "without a limit they should fly out: {unheld}"
+    );
+}
