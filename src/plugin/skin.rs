@@ -12,7 +12,7 @@ use bevy::time::Fixed;
 use crate::error::ClothError;
 use crate::plugin::components::ClothParticles;
 use crate::plugin::mesh_cloth::MeshLayout;
-use crate::sim::skin::{Influence, limit_distance, skin};
+use crate::sim::skin::{Backstop, Influence, limit_distance, push_out_of_capsule, skin};
 
 /// A `Float32` vertex attribute named `"Cloth_Freedom"` for
 /// [`ClothSkin::from_mesh`]: 0 follows the animation, 1 is simulated
@@ -59,6 +59,9 @@ pub struct ClothSkin {
     /// particle of freedom `f < 1` is kept within `f` times it (0: no
     /// limit).
     pub max_distance: f32,
+    /// Capsules around the bones that the simulated particles are kept
+    /// outside of, posed at this step ([`with_backstop`](Self::with_backstop)).
+    pub backstops: Vec<Backstop>,
 }
 
 impl ClothSkin {
@@ -154,7 +157,21 @@ impl ClothSkin {
             influences,
             freedom: free,
             max_distance,
+            backstops: Vec::new(),
         })
+    }
+
+    /// Adds a backstop: a capsule from `from` to `to` (m, in joint
+    /// `joint`'s space; a sphere when they are equal) of radius `radius` m
+    /// that the simulated particles stay outside of.
+    pub fn with_backstop(mut self, joint: usize, (from, to): (Vec3, Vec3), radius: f32) -> Self {
+        self.backstops.push(Backstop {
+            joint,
+            from,
+            to,
+            radius,
+        });
+        self
     }
 }
 
@@ -168,6 +185,9 @@ pub struct SkinTargets {
     pub velocities: Vec<Vec3>,
     /// The joints' matrices `Jₖ Bₖ` of this step.
     joint_matrices: Vec<Affine3A>,
+    /// The joints' world transforms of this step and of the last.
+    joint_worlds: Vec<Affine3A>,
+    joints_before: Vec<Affine3A>,
     /// Last step's animated positions.
     before: Vec<Vec3>,
 }
@@ -208,8 +228,11 @@ pub(crate) fn follow_skins(
         }
         let targets = &mut *targets;
         targets.joint_matrices.clear();
+        std::mem::swap(&mut targets.joints_before, &mut targets.joint_worlds);
+        targets.joint_worlds.clear();
         for (&joint, bind) in skin_of.joints.iter().zip(&skin_of.inverse_bindposes) {
             let world = world_of(joint, &transforms).unwrap_or(Affine3A::IDENTITY);
+            targets.joint_worlds.push(world);
             targets.joint_matrices.push(world * *bind);
         }
         std::mem::swap(&mut targets.before, &mut targets.positions);
@@ -251,10 +274,12 @@ pub(crate) fn follow_skins(
 }
 
 /// [`ClothSystems::Writeback`](crate::ClothSystems::Writeback): places the
-/// particles of freedom 0 exactly on their animated positions and keeps the
-/// others within their share of the max distance.
+/// particles of freedom 0 exactly on their animated positions, keeps the
+/// others within their share of the max distance and outside the
+/// backstops.
 pub(crate) fn limit_skins(
     _main: crate::plugin::schedule::MainThread,
+    time: Res<Time<Fixed>>,
     mut cloths: Query<(&ClothSkin, &SkinTargets, &mut ClothParticles)>,
     mut limits: bevy::prelude::Local<Vec<f32>>,
 ) {
@@ -274,6 +299,29 @@ pub(crate) fn limit_skins(
         }));
         let target = (&targets.positions[..], &targets.velocities[..]);
         limit_distance(&mut p.positions, &mut p.velocities, target, &limits);
+        let dt = time.timestep().as_secs_f32();
+        for b in &skin_of.backstops {
+            let (Some(now), Some(before)) = (
+                targets.joint_worlds.get(b.joint),
+                targets
+                    .joints_before
+                    .get(b.joint)
+                    .or(targets.joint_worlds.get(b.joint)),
+            ) else {
+                continue;
+            };
+            let (a, c) = (now.transform_point3(b.from), now.transform_point3(b.to));
+            let mid = 0.5 * (b.from + b.to);
+            let surface_v = (now.transform_point3(mid) - before.transform_point3(mid)) / dt;
+            let capsule = (a, c, b.radius);
+            push_out_of_capsule(
+                &mut p.positions,
+                &mut p.velocities,
+                &p.inverse_masses,
+                capsule,
+                surface_v,
+            );
+        }
         for i in 0..n {
             if skin_of.freedom[i] <= 0.0 {
                 p.positions[i] = targets.positions[i];

@@ -83,6 +83,68 @@ pub fn limit_distance(
     moved
 }
 
+/// A capsule (a sphere when `from == to`) in a joint's space that a worn
+/// cloth stays outside of, as Unity's and Jolt's backstops keep a cape off
+/// the body it hangs from.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Backstop {
+    /// The joint it moves with (an index into the skin's joints).
+    pub joint: usize,
+    /// One end of its axis in the joint's space, m.
+    pub from: Vec3,
+    /// The other end, m.
+    pub to: Vec3,
+    /// Its radius, m.
+    pub radius: f32,
+}
+
+/// Pushes every particle `i` with `w[i] > 0` (1/kg) out of the capsule
+/// from `a` to `b` (m, world) of radius `radius` m, and removes its velocity
+/// into it (m/s, relative to `surface_v`, the capsule's velocity). Returns
+/// how many particles were moved.
+pub fn push_out_of_capsule(
+    x: &mut [Vec3],
+    v: &mut [Vec3],
+    w: &[f32],
+    (a, b, radius): (Vec3, Vec3, f32),
+    surface_v: Vec3,
+) -> u32 {
+    if !(a.is_finite() && b.is_finite() && radius > 0.0 && radius.is_finite()) {
+        return 0;
+    }
+    let axis = b - a;
+    let len2 = axis.length_squared();
+    let mut moved = 0;
+    for i in 0..x.len().min(w.len()) {
+        if w[i] == 0.0 {
+            continue;
+        }
+        let t = if len2 > 0.0 {
+            ((x[i] - a).dot(axis) / len2).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        let c = a + t * axis;
+        let d = x[i] - c;
+        let dist = d.length();
+        if dist >= radius || !dist.is_finite() {
+            continue;
+        }
+        let n = if dist > 1e-9 {
+            d / dist
+        } else {
+            axis.any_orthonormal_vector()
+        };
+        x[i] = c + n * radius;
+        let into = (v[i] - surface_v).dot(n);
+        if into < 0.0 {
+            v[i] -= into * n;
+        }
+        moved += 1;
+    }
+    moved
+}
+
 #[cfg(test)]
 mod tests {
     use bevy::math::{Mat4, Quat, Vec4};
@@ -120,6 +182,26 @@ mod tests {
             let want = (m * Vec4::new(rest.x, rest.y, rest.z, 1.0)).truncate();
             assert!((got - want).length() < 1e-5, "{got} vs {want}");
         }
+    }
+
+    #[test]
+    fn a_backstop_pushes_particles_out_of_its_capsule() {
+        let mut x = vec![
+            Vec3::new(0.05, 0.5, 0.0),
+            Vec3::new(0.3, 0.5, 0.0),
+            Vec3::ZERO,
+        ];
+        let mut v = vec![Vec3::new(-1.0, 0.0, 0.0); 3];
+        let w = [1.0, 1.0, 0.0];
+        let capsule = (Vec3::ZERO, Vec3::Y, 0.1);
+        assert_eq!(
+            push_out_of_capsule(&mut x, &mut v, &w, capsule, Vec3::ZERO),
+            1
+        );
+        assert!((x[0] - Vec3::new(0.1, 0.5, 0.0)).length() < 1e-6);
+        assert!(v[0].x.abs() < 1e-6);
+        assert_eq!(x[1], Vec3::new(0.3, 0.5, 0.0));
+        assert_eq!(x[2], Vec3::ZERO, "pinned particles stay");
     }
 
     #[test]
