@@ -12,7 +12,7 @@ use bevy::ecs::schedule::ScheduleLabel;
 use bevy::prelude::*;
 use bevy_cloth::prelude::*;
 
-const WINDOWED: [&str; 7] = [
+const WINDOWED: [&str; 8] = [
     "hanging",
     "tablecloth",
     "sphere",
@@ -20,6 +20,7 @@ const WINDOWED: [&str; 7] = [
     "crease",
     "round_tablecloth",
     "flag",
+    "cape",
 ];
 
 fn source(name: &str) -> String {

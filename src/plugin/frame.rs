@@ -13,6 +13,7 @@ use crate::plugin::anchor::ClothAnchors;
 use crate::plugin::components::ClothParticles;
 use crate::plugin::mesh::ClothPrevious;
 use crate::plugin::pose::WorldPose;
+use crate::plugin::skin::ClothSkin;
 use crate::plugin::systems::ClothScratch;
 use crate::sim::frame::{Carry, InertiaScale, teleport};
 
@@ -75,10 +76,11 @@ pub(crate) fn carry_with_frames(
         &mut ClothParticles,
         &mut ClothScratch,
         Option<&ClothAnchors>,
+        Option<&ClothSkin>,
     )>,
     mut carried: Local<Vec<bool>>,
 ) {
-    for (inertia, mut last, mut particles, mut scratch, anchors) in &mut cloths {
+    for (inertia, mut last, mut particles, mut scratch, anchors, skin) in &mut cloths {
         let Some(now) = frames.get(inertia.frame).ok().and_then(|p| p.isometry()) else {
             last.0 = None;
             continue;
@@ -89,10 +91,16 @@ pub(crate) fn carry_with_frames(
                 angular: inertia.angular_scale,
             };
             if let Some(carry) = Carry::new((before, now), scale) {
-                // The free particles, and the pins the frame carries.
+                // The free particles, and the pins that move with the
+                // frame: its anchors and a skin's kinematic particles.
                 let p = &mut particles.0;
                 carried.clear();
                 carried.extend(p.inverse_masses.iter().map(|&w| w > 0.0));
+                if let Some(skin) = skin {
+                    for (c, &f) in carried.iter_mut().zip(&skin.freedom) {
+                        *c |= f <= 0.0;
+                    }
+                }
                 for anchor in anchors.iter().flat_map(|a| a.anchors()) {
                     if anchor.target == inertia.frame
                         && let Some(c) = carried.get_mut(anchor.particle as usize)
