@@ -65,19 +65,22 @@ impl ClothInertia {
 #[derive(Component, Clone, Copy, Debug, Default, PartialEq)]
 pub struct FramePose(pub Option<Isometry3d>);
 
+/// What carrying a cloth with its frame reads and writes.
+type CarryQuery = (
+    &'static ClothInertia,
+    &'static mut FramePose,
+    &'static mut ClothParticles,
+    &'static mut ClothScratch,
+    Option<&'static ClothAnchors>,
+    Option<&'static ClothSkin>,
+);
+
 /// [`ClothSystems::Prepare`](crate::ClothSystems::Prepare): carries each
 /// cloth's free particles by the unfelt share of its frame's motion.
 pub(crate) fn carry_with_frames(
     _main: crate::plugin::schedule::MainThread,
     frames: Query<WorldPose>,
-    mut cloths: Query<(
-        &ClothInertia,
-        &mut FramePose,
-        &mut ClothParticles,
-        &mut ClothScratch,
-        Option<&ClothAnchors>,
-        Option<&ClothSkin>,
-    )>,
+    mut cloths: Query<CarryQuery>,
     mut carried: Local<Vec<bool>>,
 ) {
     for (inertia, mut last, mut particles, mut scratch, anchors, skin) in &mut cloths {
