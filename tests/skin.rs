@@ -233,3 +233,46 @@ fn a_backstop_keeps_the_ribbon_off_the_body_it_is_blown_against() {
     assert!(kept < 1e-4, "{kept}");
     assert!(through > 0.02, "{through}");
 }
+
+/// The worst strain of the ribbon while its skeleton walks at 3 m/s for
+/// 1 s feeling `inertia` of its root's motion.
+fn walked(inertia: Option<f32>) -> f32 {
+    let mut app = app();
+    let (root, _, e) = wear(&mut app, 0.1);
+    if let Some(s) = inertia {
+        app.world_mut()
+            .entity_mut(e)
+            .insert(ClothInertia::new(root, s, s));
+    }
+    app.update();
+    let mut worst = 0.0f32;
+    for k in 0..60 {
+        let x = 3.0 * (k + 1) as f32 / 60.0;
+        app.world_mut()
+            .get_mut::<Transform>(root)
+            .unwrap()
+            .translation
+            .x = x;
+        app.update();
+        let links = app.world().get::<ClothConnections>(e).unwrap();
+        let p = particles(&app, e);
+        assert!(p.is_finite());
+        worst = worst.max(bevy_cloth::sim::connections::max_strain(
+            links.type1(),
+            &p.positions,
+        ));
+    }
+    worst
+}
+
+#[test]
+fn inertia_scales_carry_a_skins_kinematic_particles_with_the_free_ones() {
+    let felt = walked(Some(0.3));
+    let world = walked(None);
+    eprintln!(
+        "skeleton walking at 3 m/s: strain ≤ {:.2} % feeling 0.3 of it, {:.2} % in the world",
+        100.0 * felt,
+        100.0 * world
+    );
+    assert!(felt < 0.02, "{felt}");
+}
