@@ -145,10 +145,17 @@ fn kinematic_particles_follow_the_animation_exactly() {
 
 /// The farthest (m) a particle of freedom 0.5 and one of freedom 1 get
 /// from their animated positions while the skeleton spins up to 20 rad/s
-/// in 0.25 s and spins on for 1.75 s.
+/// in 0.25 s and spins on for 1.75 s, every simulated particle outside a
+/// backstop round the body.
 fn spin(max: f32) -> (f32, f32) {
     let mut app = app();
     let (root, _, e) = wear(&mut app, max);
+    // A backstop round the body, checked below.
+    let skin = app.world_mut().get::<ClothSkin>(e).unwrap().clone();
+    let axis = (Vec3::new(0.0, 0.7, 0.0), Vec3::new(0.0, 1.5, 0.0));
+    app.world_mut()
+        .entity_mut(e)
+        .insert(skin.with_backstop(0, axis, 0.08));
     let (mut half, mut free) = (0.0f32, 0.0f32);
     let mut angle = 0.0f32;
     for k in 0..120 {
@@ -159,6 +166,11 @@ fn spin(max: f32) -> (f32, f32) {
         let p = particles(&app, e);
         assert!(p.is_finite(), "step {k}");
         for (i, (x, t)) in p.positions.iter().zip(&targets).enumerate() {
+            let body = Vec3::new(0.0, x.y.clamp(0.7, 1.5), 0.0);
+            assert!(
+                p.is_pinned(i) || x.distance(body) >= 0.08 - 1e-4,
+                "step {k}: inside the backstop"
+            );
             let row = i as u32 / COLS;
             let d = x.distance(*t);
             if (1..=4).contains(&row) {
@@ -172,7 +184,7 @@ fn spin(max: f32) -> (f32, f32) {
 }
 
 #[test]
-fn the_max_distance_holds_under_a_20_rad_s_spin() {
+fn the_max_distance_and_the_backstop_hold_under_a_20_rad_s_spin() {
     let (held, free) = spin(0.1);
     let (unheld, _) = spin(0.0);
     eprintln!(

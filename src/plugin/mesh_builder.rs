@@ -2,13 +2,13 @@
 //! made by [`ClothBuilder::from_mesh`](crate::ClothBuilder::from_mesh).
 
 use bevy::math::{Quat, Vec3};
-use bevy::mesh::{Mesh, MeshVertexAttribute, VertexAttributeValues, VertexFormat};
+use bevy::mesh::{Mesh, MeshVertexAttribute, VertexFormat};
 
 use crate::error::ClothError;
 use crate::plugin::builder::{ClothBuilder, ClothBundle};
 use crate::plugin::components::{Cloth, ClothConnections, ClothParticles, ClothSettings};
 use crate::plugin::material::ClothMaterial;
-use crate::plugin::mesh_cloth::{MeshLayout, painted_particles};
+use crate::plugin::mesh_cloth::{MeshLayout, float_attribute, marked_particles, painted_particles};
 
 /// How the cloth's mass is given.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -251,30 +251,12 @@ impl MeshClothBuilder {
             Pin::Where(f) => topology.particles_where(f),
             Pin::Painted(channel) => painted_particles(&self.mesh, topology, *channel)?,
             Pin::Attribute(name) => {
-                let values = self
-                    .mesh
-                    .attributes()
-                    .find(|(a, _)| a.name == name.as_str())
-                    .map(|(_, v)| v);
-                let Some(VertexAttributeValues::Float32(values)) = values else {
-                    return Err(ClothError::UnsupportedMesh(
-                        "no Float32 vertex attribute of that name",
-                    ));
-                };
-                if values.len() != vertices {
-                    return Err(ClothError::UnsupportedMesh(
-                        "the pin attribute and the mesh's vertices differ in number",
-                    ));
-                }
-                let mut pins: Vec<u32> = values
-                    .iter()
-                    .zip(&topology.particle_of)
-                    .filter(|&(&v, _)| v >= 0.5)
-                    .filter_map(|(_, &p)| p)
-                    .collect();
-                pins.sort_unstable();
-                pins.dedup();
-                pins
+                let values = float_attribute(&self.mesh, name).ok_or(
+                    ClothError::UnsupportedMesh("no Float32 vertex attribute of that name"),
+                )?;
+                marked_particles(values, topology).ok_or(ClothError::UnsupportedMesh(
+                    "the pin attribute and the mesh's vertices differ in number",
+                ))?
             }
         })
     }
@@ -290,7 +272,7 @@ pub const ATTRIBUTE_PIN: MeshVertexAttribute =
 mod tests {
     use bevy::asset::RenderAssetUsages;
     use bevy::math::primitives::Plane3d;
-    use bevy::mesh::{Indices, MeshBuilder, Meshable, PrimitiveTopology};
+    use bevy::mesh::{Indices, MeshBuilder, Meshable, PrimitiveTopology, VertexAttributeValues};
 
     use super::*;
 

@@ -258,20 +258,35 @@ pub fn painted_particles(
             ));
         }
     };
+    marked_particles(&values, topology).ok_or(ClothError::UnsupportedMesh(
+        "vertex colours and the cloth's vertices differ in number",
+    ))
+}
+
+/// The particles of `topology` with a vertex whose value in `values` (one
+/// per vertex) is 0.5 or more, in increasing order; `None` when the
+/// values and the vertices differ in number.
+pub(crate) fn marked_particles(values: &[f32], topology: &MeshTopology) -> Option<Vec<u32>> {
     if values.len() != topology.particle_of.len() {
-        return Err(ClothError::UnsupportedMesh(
-            "vertex colours and the cloth's vertices differ in number",
-        ));
+        return None;
     }
-    let mut pins: Vec<u32> = values
+    let mut marked: Vec<u32> = values
         .iter()
         .zip(&topology.particle_of)
         .filter(|&(&v, _)| v >= 0.5)
         .filter_map(|(_, &p)| p)
         .collect();
-    pins.sort_unstable();
-    pins.dedup();
-    Ok(pins)
+    marked.sort_unstable();
+    marked.dedup();
+    Some(marked)
+}
+
+/// The values of `mesh`'s `Float32` vertex attribute named `name`.
+pub(crate) fn float_attribute<'a>(mesh: &'a Mesh, name: &str) -> Option<&'a [f32]> {
+    match mesh.attributes().find(|(a, _)| a.name == name) {
+        Some((_, VertexAttributeValues::Float32(values))) => Some(values),
+        _ => None,
+    }
 }
 
 #[cfg(test)]

@@ -11,7 +11,8 @@ use bevy::time::Fixed;
 
 use crate::error::ClothError;
 use crate::plugin::components::ClothParticles;
-use crate::plugin::mesh_cloth::MeshLayout;
+use crate::plugin::mesh_cloth::{MeshLayout, float_attribute};
+use crate::plugin::tether::ClothTethers;
 use crate::sim::skin::{Backstop, Influence, limit_distance, push_out_of_capsule, skin};
 
 /// A `Float32` vertex attribute named `"Cloth_Freedom"` for
@@ -42,8 +43,10 @@ pub const ATTRIBUTE_FREEDOM: MeshVertexAttribute = MeshVertexAttribute::new(
 /// - a particle of freedom 1 is simulated freely.
 ///
 /// On its first step every particle is placed at its animated position.
+/// Worn cloth has tethers to its kinematic particles by default (a
+/// [`ClothTethers`] is added with the skin unless the entity has one).
 #[derive(Component, Clone, Debug, PartialEq)]
-#[require(SkinTargets)]
+#[require(SkinTargets, ClothTethers)]
 pub struct ClothSkin {
     /// The skeleton's joint entities (a `SkinnedMesh`'s `joints`).
     pub joints: Vec<Entity>,
@@ -98,13 +101,8 @@ impl ClothSkin {
         else {
             return Err(unsupported("no Float32x4 joint weights"));
         };
-        let paint = mesh
-            .attributes()
-            .find(|(a, _)| a.name == freedom)
-            .map(|(_, v)| v);
-        let Some(VertexAttributeValues::Float32(paint)) = paint else {
-            return Err(unsupported("no Float32 freedom attribute of that name"));
-        };
+        let paint = float_attribute(mesh, freedom)
+            .ok_or(unsupported("no Float32 freedom attribute of that name"))?;
         if [positions.len(), indices.len(), weights.len(), paint.len()]
             .iter()
             .any(|&n| n != vertices)
