@@ -197,7 +197,7 @@ fn setup(
     commands.spawn((
         Mesh3d(meshes.add(body_mesh(0.19, HIPS + 0.7))),
         MeshMaterial3d(materials.add(Color::srgb(0.25, 0.3, 0.38))),
-        skin,
+        skin.clone(),
         Transform::default(),
     ));
     // The head rides on the chest.
@@ -214,10 +214,11 @@ fn setup(
         .build()
         .expect("a valid cape");
     let layout = cloth.cloth.mesh().expect("a mesh cloth").clone();
-    let worn = ClothSkin::from_mesh(
+    // The cape wears the body's skeleton: its joints and bind poses.
+    let worn = ClothSkin::from_skinned_mesh(
         &mesh,
         &layout,
-        (vec![hips, chest], &binds),
+        (&skin, &bindposes),
         ATTRIBUTE_FREEDOM.name,
         0.3,
     )

@@ -288,3 +288,34 @@ fn inertia_scales_carry_a_skins_kinematic_particles_with_the_free_ones() {
     );
     assert!(felt < 0.02, "{felt}");
 }
+
+#[test]
+fn a_skin_comes_from_a_skinned_mesh_and_its_bind_poses() {
+    use bevy::mesh::skinning::{SkinnedMesh, SkinnedMeshInverseBindposes};
+    let mut app = app();
+    let root = app.world_mut().spawn(Transform::default()).id();
+    let upper = app
+        .world_mut()
+        .spawn(Transform::from_xyz(0.0, 1.2, 0.0))
+        .id();
+    let binds = vec![
+        Mat4::IDENTITY,
+        Mat4::from_translation(Vec3::new(0.0, -1.2, 0.0)),
+    ];
+    let mut assets = Assets::<SkinnedMeshInverseBindposes>::default();
+    let skinned = SkinnedMesh {
+        inverse_bindposes: assets.add(binds.clone()),
+        joints: vec![root, upper],
+    };
+    let mesh = ribbon();
+    let cloth = ClothBuilder::from_mesh(&mesh).build().unwrap();
+    let layout = cloth.cloth.mesh().unwrap().clone();
+    let name = ATTRIBUTE_FREEDOM.name;
+    let skin = ClothSkin::from_skinned_mesh(&mesh, &layout, (&skinned, &assets), name, 0.1);
+    let direct = ClothSkin::from_mesh(&mesh, &layout, (vec![root, upper], &binds), name, 0.1);
+    assert_eq!(skin.unwrap(), direct.unwrap());
+    // Bind poses not loaded: an error, not a panic.
+    let empty = Assets::<SkinnedMeshInverseBindposes>::default();
+    let missing = ClothSkin::from_skinned_mesh(&mesh, &layout, (&skinned, &empty), name, 0.1);
+    assert!(matches!(missing, Err(ClothError::UnsupportedMesh(_))));
+}

@@ -9,7 +9,6 @@ use bevy::prelude::{
 };
 
 use crate::plugin::anchor::ClothAnchors;
-
 use crate::plugin::components::ClothParticles;
 use crate::plugin::mesh::ClothPrevious;
 use crate::plugin::pose::WorldPose;
@@ -27,6 +26,10 @@ use crate::sim::frame::{Carry, InertiaScale, teleport};
 ///
 /// The frame is read as anchors' targets are ([`pose`](crate::plugin::pose)).
 /// Use [`TeleportCloth`] to move a character and its cloth somewhere else.
+/// The frame's own anchors and a [`ClothSkin`]'s kinematic particles are
+/// carried with the free particles. A collider that moves with the frame
+/// takes the carried share for motion against it: keep the cloth off the
+/// body it hangs from with [`ClothSkin`] backstops instead.
 ///
 /// ```
 /// # use bevy::prelude::*;

@@ -4,7 +4,9 @@
 //! exactly, particles painted 1 are simulated, and those in between are
 //! simulated within a maximum distance of it, scaled by their paint.
 
+use bevy::asset::Assets;
 use bevy::math::{Affine3A, Mat4, Vec3};
+use bevy::mesh::skinning::{SkinnedMesh, SkinnedMeshInverseBindposes};
 use bevy::mesh::{Mesh, MeshVertexAttribute, VertexAttributeValues, VertexFormat};
 use bevy::prelude::{ChildOf, Component, Entity, Query, Res, Time, Transform};
 use bevy::time::Fixed;
@@ -157,6 +159,28 @@ impl ClothSkin {
             max_distance,
             backstops: Vec::new(),
         })
+    }
+
+    /// [`from_mesh`](Self::from_mesh) with the joints and inverse bind
+    /// poses of `skinned`, the `SkinnedMesh` that renders `mesh`.
+    ///
+    /// Errors: as `from_mesh`, and [`ClothError::UnsupportedMesh`] when the
+    /// inverse bind poses are not in `bindposes` (not loaded yet).
+    pub fn from_skinned_mesh(
+        mesh: &Mesh,
+        layout: &MeshLayout,
+        (skinned, bindposes): (&SkinnedMesh, &Assets<SkinnedMeshInverseBindposes>),
+        freedom: &str,
+        max_distance: f32,
+    ) -> Result<Self, ClothError> {
+        let binds =
+            bindposes
+                .get(&skinned.inverse_bindposes)
+                .ok_or(ClothError::UnsupportedMesh(
+                    "the skin's inverse bind poses are not loaded",
+                ))?;
+        let joints = (skinned.joints.clone(), &binds[..]);
+        Self::from_mesh(mesh, layout, joints, freedom, max_distance)
     }
 
     /// Adds a backstop: a capsule from `from` to `to` (m, in joint
