@@ -13,11 +13,34 @@ use crate::plugin::components::ClothSettings;
 use crate::plugin::material::ClothMaterial;
 pub use crate::sim::grid::{Grid, GridCorner, GridEdge, MAX_PARTICLES};
 
-/// How the cloth's mass is given.
+/// How the cloth's mass is given (kg/m² or kg).
 #[derive(Clone, Copy, Debug, PartialEq)]
-enum Mass {
+pub(crate) enum Mass {
     PerArea(f32),
     Total(f32),
+}
+
+/// The checks both builders make of what they share: the material, the
+/// mass (the material's density unless given; finite and positive) and the
+/// placement (finite, a rotation of non-zero length). Returns the mass and
+/// the normalised rotation.
+pub(crate) fn check_common(
+    material: &ClothMaterial,
+    mass: Option<Mass>,
+    position: Vec3,
+    rotation: Quat,
+) -> Result<(Mass, Quat), ClothError> {
+    material.validate()?;
+    let mass = mass.unwrap_or(Mass::PerArea(material.fabric().map_or(0.15, |f| f.density)));
+    let (Mass::PerArea(m) | Mass::Total(m)) = mass;
+    if !(m.is_finite() && m > 0.0) {
+        return Err(ClothError::InvalidMass(m));
+    }
+    let length = rotation.length();
+    if !(position.is_finite() && rotation.is_finite() && length > 1e-6) {
+        return Err(ClothError::InvalidPlacement);
+    }
+    Ok((mass, rotation / length))
 }
 
 /// A pin request, resolved when the grid is known.
@@ -201,19 +224,9 @@ impl ClothBuilder {
                 height: size.y,
             });
         }
-        self.material.validate()?;
-        let mass = self.mass.unwrap_or(Mass::PerArea(
-            self.material.fabric().map_or(0.15, |f| f.density),
-        ));
+        let (mass, rotation) =
+            check_common(&self.material, self.mass, self.position, self.rotation)?;
         let (Mass::PerArea(m) | Mass::Total(m)) = mass;
-        if !(m.is_finite() && m > 0.0) {
-            return Err(ClothError::InvalidMass(m));
-        }
-        let rot_len = self.rotation.length();
-        if !(self.position.is_finite() && self.rotation.is_finite() && rot_len > 1e-6) {
-            return Err(ClothError::InvalidPlacement);
-        }
-        let rotation = self.rotation / rot_len;
 
         let grid = Grid { cols, rows, size };
         let count = grid.len();

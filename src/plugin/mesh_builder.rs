@@ -5,17 +5,10 @@ use bevy::math::{Quat, Vec3};
 use bevy::mesh::{Mesh, MeshVertexAttribute, VertexFormat};
 
 use crate::error::ClothError;
-use crate::plugin::builder::{ClothBuilder, ClothBundle};
+use crate::plugin::builder::{ClothBuilder, ClothBundle, Mass, check_common};
 use crate::plugin::components::{Cloth, ClothConnections, ClothParticles, ClothSettings};
 use crate::plugin::material::ClothMaterial;
 use crate::plugin::mesh_cloth::{MeshLayout, float_attribute, marked_particles, painted_particles};
-
-/// How the cloth's mass is given.
-#[derive(Clone, Copy, Debug, PartialEq)]
-enum Mass {
-    PerArea(f32),
-    Total(f32),
-}
 
 /// A pin request, resolved against the welded mesh.
 enum Pin {
@@ -172,19 +165,9 @@ impl MeshClothBuilder {
     /// has no colours or attribute for ([`ClothError::UnsupportedMesh`]),
     /// and an invalid material, mass or placement.
     pub fn build(self) -> Result<ClothBundle, ClothError> {
-        self.material.validate()?;
-        let mass = self.mass.unwrap_or(Mass::PerArea(
-            self.material.fabric().map_or(0.15, |f| f.density),
-        ));
+        let (mass, rotation) =
+            check_common(&self.material, self.mass, self.position, self.rotation)?;
         let (Mass::PerArea(m) | Mass::Total(m)) = mass;
-        if !(m.is_finite() && m > 0.0) {
-            return Err(ClothError::InvalidMass(m));
-        }
-        let rot_len = self.rotation.length();
-        if !(self.position.is_finite() && self.rotation.is_finite() && rot_len > 1e-6) {
-            return Err(ClothError::InvalidPlacement);
-        }
-        let rotation = self.rotation / rot_len;
         let shape = MeshLayout::from_mesh(&self.mesh)?;
         let topology = shape.topology();
         let count = topology.len();

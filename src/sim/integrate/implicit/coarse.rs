@@ -58,6 +58,37 @@ fn reverse_aggregates(v: &mut [f64]) {
     }
 }
 
+/// Visits every pair `(p, q)`, `p < q`, of a step of `n` particles that
+/// the operator takes, for a coarse operator to add: the blocks formed by
+/// stream, then the Jacobian `blocks` as `C = αD + βK`. `visit` gets the
+/// pair and a function that forms its block `C` (xx, yy, zz, xy, xz, yz;
+/// `None` for a zero block), so that the pairs inside one aggregate, most
+/// of them, where they cancel, cost no block.
+pub(super) fn joining_pairs<'a>(
+    n: usize,
+    (blocks, streamed): (&[Block], impl Iterator<Item = StreamBlocks<'a>>),
+    (alpha, beta): (f32, f32),
+    mut visit: impl FnMut(usize, usize, &dyn Fn() -> Option<[f32; 6]>),
+) {
+    for src in streamed {
+        // Slots past the last particle hold no link.
+        let m = src.t.len().min(n.saturating_sub(src.lo + src.delta));
+        for i in 0..m {
+            let (p, q) = (src.lo + i, src.lo + i + src.delta);
+            visit(p, q, &|| {
+                (src.t[i] != 0.0 || src.s[i] != 0.0)
+                    .then(|| sym_of(src.t[i], src.s[i], src.u.map(|u| u[i])))
+            });
+        }
+    }
+    for blk in blocks {
+        let (p, q) = (blk.a.min(blk.b) as usize, blk.a.max(blk.b) as usize);
+        visit(p, q, &|| {
+            rank_block(blk, alpha, beta).map(|(t, s, u)| sym_of(t, s, u))
+        });
+    }
+}
+
 /// Marks a pinned particle, which belongs to no aggregate.
 const NONE: u32 = u32::MAX;
 
@@ -217,32 +248,20 @@ impl Coarse {
     }
 
     /// Adds every pair of a step of `n` particles that joins two
-    /// aggregates: the blocks `C` formed by stream, then the Jacobian
-    /// `blocks` as `C = αD + βK`, as the operator takes them.
+    /// aggregates ([`joining_pairs`]).
     pub(super) fn add_pairs<'a>(
         &mut self,
         n: usize,
-        (blocks, streamed): (&[Block], impl Iterator<Item = StreamBlocks<'a>>),
-        (alpha, beta): (f32, f32),
+        pairs: (&[Block], impl Iterator<Item = StreamBlocks<'a>>),
+        scales: (f32, f32),
     ) {
-        for src in streamed {
-            // Slots past the last particle hold no link.
-            let m = src.t.len().min(n.saturating_sub(src.lo + src.delta));
-            // Most pairs lie inside one aggregate, where they cancel.
-            for i in 0..m {
-                let (p, q) = (src.lo + i, src.lo + i + src.delta);
-                if self.joins(p, q) && (src.t[i] != 0.0 || src.s[i] != 0.0) {
-                    let c = sym_of(src.t[i], src.s[i], src.u.map(|u| u[i]));
-                    self.add_pair(p, q, &c);
-                }
+        joining_pairs(n, pairs, scales, |p, q, block| {
+            if self.joins(p, q)
+                && let Some(c) = block()
+            {
+                self.add_pair(p, q, &c);
             }
-        }
-        for blk in blocks {
-            if let Some((t, s, u)) = rank_block(blk, alpha, beta) {
-                let (p, q) = (blk.a.min(blk.b) as usize, blk.a.max(blk.b) as usize);
-                self.add_pair(p, q, &sym_of(t, s, u));
-            }
-        }
+        });
     }
 
     /// Factors `A_c`; `false` if a block coupled aggregates that are not

@@ -20,7 +20,8 @@
 
 use bevy::math::Vec3;
 
-use super::operator::{Soa, rank_block, sym_matrix, sym_of};
+use super::coarse::joining_pairs;
+use super::operator::{Soa, sym_matrix};
 use crate::sim::connections::Connections;
 use crate::sim::model::jacobian::Block;
 use crate::sim::model::streams::StreamBlocks;
@@ -151,33 +152,20 @@ impl MeshCoarse {
     }
 
     /// Adds every pair of a step of `n` particles that joins two
-    /// aggregates: the blocks `C` formed by stream, then the Jacobian
-    /// `blocks` as `C = αD + βK`, as the operator takes them.
+    /// aggregates ([`joining_pairs`]).
     pub(super) fn add_pairs<'a>(
         &mut self,
         n: usize,
-        (blocks, streamed): (&[Block], impl Iterator<Item = StreamBlocks<'a>>),
-        (alpha, beta): (f32, f32),
+        pairs: (&[Block], impl Iterator<Item = StreamBlocks<'a>>),
+        scales: (f32, f32),
     ) {
-        for src in streamed {
-            let m = src.t.len().min(n.saturating_sub(src.lo + src.delta));
-            for i in 0..m {
-                let (p, q) = (src.lo + i, src.lo + i + src.delta);
-                if self.aggregate[p] != self.aggregate[q] && (src.t[i] != 0.0 || src.s[i] != 0.0) {
-                    let c = sym_of(src.t[i], src.s[i], src.u.map(|u| u[i]));
-                    self.add_pair(p, q, &c);
-                }
+        joining_pairs(n, pairs, scales, |p, q, block| {
+            if self.aggregate[p] != self.aggregate[q]
+                && let Some(c) = block()
+            {
+                self.add_pair(p, q, &c);
             }
-        }
-        for blk in blocks {
-            let (p, q) = (blk.a as usize, blk.b as usize);
-            if self.aggregate[p] == self.aggregate[q] {
-                continue;
-            }
-            if let Some((t, s, u)) = rank_block(blk, alpha, beta) {
-                self.add_pair(p, q, &sym_of(t, s, u));
-            }
-        }
+        });
     }
 
     /// Factors `A_c` in place; `false` on a pivot that is not positive.
