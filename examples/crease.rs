@@ -11,7 +11,8 @@
 
 mod automation;
 
-use bevy::picking::events::{Move, Pointer, Press};
+use bevy::picking::events::{PointerMove, PointerPress};
+use bevy::picking::mesh_picking::MeshPickingPlugin;
 use bevy::prelude::*;
 use bevy_cloth::plugin::picking::ClothPicking;
 use bevy_cloth::prelude::*;
@@ -38,9 +39,15 @@ fn main() {
             ..default()
         }))
         .add_plugins((EguiPlugin::default(), PanOrbitCameraPlugin))
-        // The simulation (the mouse's left button pulls a cloth, the right
-        // one pins), its panel and the debug view.
-        .add_plugins((ClothPlugin::default(), ClothPanelPlugin, debug_view))
+        // Bevy's mesh picking (how the mouse reaches a cloth), the
+        // simulation (the left button pulls a cloth, the right one pins),
+        // its panel and the debug view.
+        .add_plugins((
+            MeshPickingPlugin,
+            ClothPlugin::default(),
+            ClothPanelPlugin,
+            debug_view,
+        ))
         .insert_resource(ClothPanel::with_help(HELP))
         // Scripted runs for the rendering check (`--frames`, `--screenshot`):
         // delete this line and the example runs the same.
@@ -141,7 +148,7 @@ fn shift(keys: &ButtonInput<KeyCode>) -> bool {
 
 /// Shift + press on the napkin starts a crease there.
 fn start_drawing(
-    event: On<Pointer<Press>>,
+    event: On<PointerPress>,
     keys: Res<ButtonInput<KeyCode>>,
     cloths: Query<(&Cloth, &ClothParticles)>,
     mut drawing: ResMut<Drawing>,
@@ -149,24 +156,21 @@ fn start_drawing(
     if !shift(&keys) {
         return;
     }
-    if let (Ok((cloth, particles)), Some(hit)) =
-        (cloths.get(event.entity), event.event.hit.position)
-    {
+    if let (Ok((cloth, particles)), Some(hit)) = (cloths.get(event.entity), event.hit.position) {
         drawing.line = rest_uv(cloth, particles, hit).map(|uv| (uv, uv));
     }
 }
 
 /// While drawing, the crease's end follows the pointer over the napkin.
 fn track_drawing(
-    event: On<Pointer<Move>>,
+    event: On<PointerMove>,
     cloths: Query<(&Cloth, &ClothParticles)>,
     mut drawing: ResMut<Drawing>,
 ) {
     let Some((from, _)) = drawing.line else {
         return;
     };
-    if let (Ok((cloth, particles)), Some(hit)) =
-        (cloths.get(event.entity), event.event.hit.position)
+    if let (Ok((cloth, particles)), Some(hit)) = (cloths.get(event.entity), event.hit.position)
         && let Some(uv) = rest_uv(cloth, particles, hit)
     {
         drawing.line = Some((from, uv));

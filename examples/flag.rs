@@ -10,6 +10,7 @@
 mod automation;
 
 use bevy::gltf::{GltfAssetLabel, GltfPlugin};
+use bevy::picking::mesh_picking::MeshPickingPlugin;
 use bevy::prelude::*;
 use bevy_cloth::prelude::*;
 use bevy_egui::EguiPlugin;
@@ -46,9 +47,15 @@ fn main() {
                 .set(GltfPlugin::default().add_custom_vertex_attribute("PIN", ATTRIBUTE_PIN)),
         )
         .add_plugins((EguiPlugin::default(), PanOrbitCameraPlugin))
-        // The simulation (the mouse's left button pulls a cloth, the right
-        // one pins), its panel and the debug view.
-        .add_plugins((ClothPlugin::default(), ClothPanelPlugin, debug_view))
+        // Bevy's mesh picking (how the mouse reaches a cloth), the
+        // simulation (the left button pulls a cloth, the right one pins),
+        // its panel and the debug view.
+        .add_plugins((
+            MeshPickingPlugin,
+            ClothPlugin::default(),
+            ClothPanelPlugin,
+            debug_view,
+        ))
         .insert_resource(ClothPanel::with_help(HELP))
         // Scripted runs for the rendering check (`--frames`, `--screenshot`):
         // delete this line and the example runs the same.
@@ -131,6 +138,7 @@ fn hoist_when_loaded(
     meshes: Res<Assets<Mesh>>,
     assets: Res<AssetServer>,
     cloths: Query<(), With<Cloth>>,
+    mut panel: ResMut<ClothPanel>,
     mut failed: Local<bool>,
 ) {
     if !cloths.is_empty() || *failed {
@@ -138,6 +146,8 @@ fn hoist_when_loaded(
     }
     if let Some(bevy::asset::LoadState::Failed(error)) = assets.get_load_state(&pennant_mesh.mesh) {
         error!("the pennant did not load: {error}");
+        // On screen too: the player may not see the log.
+        panel.notice = format!("The pennant did not load, so there is no cloth: {error}");
         *failed = true;
         return;
     }
@@ -150,6 +160,7 @@ fn hoist_when_loaded(
         }
         Err(error) => {
             error!("the pennant is not a cloth: {error}");
+            panel.notice = format!("The pennant is not a cloth: {error}");
             *failed = true;
         }
     }

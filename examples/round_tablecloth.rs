@@ -9,6 +9,7 @@
 
 mod automation;
 
+use bevy::picking::mesh_picking::MeshPickingPlugin;
 use bevy::prelude::*;
 use bevy_cloth::plugin::mesh_cloth::disc_mesh;
 use bevy_cloth::prelude::*;
@@ -35,9 +36,15 @@ fn main() {
             ..default()
         }))
         .add_plugins((EguiPlugin::default(), PanOrbitCameraPlugin))
-        // The simulation (the mouse's left button pulls a cloth, the right
-        // one pins), its panel and the debug view.
-        .add_plugins((ClothPlugin::default(), ClothPanelPlugin, debug_view))
+        // Bevy's mesh picking (how the mouse reaches a cloth), the
+        // simulation (the left button pulls a cloth, the right one pins),
+        // its panel and the debug view.
+        .add_plugins((
+            MeshPickingPlugin,
+            ClothPlugin::default(),
+            ClothPanelPlugin,
+            debug_view,
+        ))
         .insert_resource(ClothPanel::with_help(HELP))
         // Scripted runs for the rendering check (`--frames`, `--screenshot`):
         // delete this line and the example runs the same.

@@ -11,6 +11,7 @@ mod automation;
 use bevy::asset::AssetLoadFailedEvent;
 use bevy::image::{ImageAddressMode, ImageLoaderSettings, ImageSampler, ImageSamplerDescriptor};
 use bevy::math::Affine2;
+use bevy::picking::mesh_picking::MeshPickingPlugin;
 use bevy::prelude::*;
 use bevy_cloth::prelude::*;
 use bevy_egui::EguiPlugin;
@@ -40,9 +41,15 @@ fn main() {
             ..default()
         }))
         .add_plugins((EguiPlugin::default(), PanOrbitCameraPlugin))
-        // The simulation (the mouse's left button pulls a cloth, the right
-        // one pins), its panel and the debug view.
-        .add_plugins((ClothPlugin::default(), ClothPanelPlugin, debug_view))
+        // Bevy's mesh picking (how the mouse reaches a cloth), the
+        // simulation (the left button pulls a cloth, the right one pins),
+        // its panel and the debug view.
+        .add_plugins((
+            MeshPickingPlugin,
+            ClothPlugin::default(),
+            ClothPanelPlugin,
+            debug_view,
+        ))
         .insert_resource(ClothPanel::with_help(HELP))
         // Scripted runs for the rendering check (`--frames`, `--screenshot`):
         // delete this line and the example runs the same.
@@ -299,9 +306,11 @@ fn plain_if_no_texture(
     mut failed: MessageReader<AssetLoadFailedEvent<Image>>,
     fabric: Res<Fabric>,
     mut materials: ResMut<Assets<StandardMaterial>>,
+    mut panel: ResMut<ClothPanel>,
 ) {
     for event in failed.read() {
         warn!("{}: the cloth is drawn plain red", event.error);
+        panel.notice = format!("{}: the cloth is drawn plain red", event.error);
         if let Some(mut material) = materials.get_mut(&fabric.0) {
             material.base_color_texture = None;
             material.base_color = Color::srgb(0.75, 0.15, 0.15);

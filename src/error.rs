@@ -6,6 +6,7 @@ use bevy::math::Vec3;
 
 /// Everything that can be wrong with a cloth's description.
 #[derive(thiserror::Error, Clone, Debug, PartialEq)]
+#[non_exhaustive]
 pub enum ClothError {
     /// The grid needs at least 3×3 particles (Type 2 links span two spacings).
     #[error("a cloth grid needs at least 3x3 particles, got {cols}x{rows}")]

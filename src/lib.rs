@@ -12,13 +12,14 @@
 //! ## Getting started
 //!
 //! ```no_run
+//! use bevy::picking::mesh_picking::MeshPickingPlugin;
 //! use bevy::prelude::*;
 //! use bevy_cloth::prelude::*;
 //!
 //! fn main() {
 //!     App::new()
-//!         // Also adds Bevy's mesh picking: the mouse pulls the cloth.
-//!         .add_plugins((DefaultPlugins, ClothPlugin::default()))
+//!         // Bevy's mesh picking lets the mouse pull the cloth.
+//!         .add_plugins((DefaultPlugins, MeshPickingPlugin, ClothPlugin::default()))
 //!         .add_systems(Startup, spawn)
 //!         .run();
 //! }
@@ -60,17 +61,18 @@
 //! - Two layers: [`sim`] is the simulation, plain data and plain functions
 //!   over slices usable without an `App` ([`sim::step::step_cloth`],
 //!   [`sim::guard::step_guarded`]); [`plugin`] is everything ECS, its
-//!   components thin newtypes over the `sim` types. [`lab`] holds the
-//!   research measurements.
+//!   components thin newtypes over the `sim` types. `lab` (feature `lab`)
+//!   holds the research measurements.
 //!
 //! ## Cargo features
 //!
 //! | feature | default | what it adds |
 //! |---|---|---|
 //! | `render` | yes | a default double-sided `StandardMaterial` for cloths that have none (pulls in `bevy_pbr`) |
-//! | `picking` | yes | pull and pin cloths with the mouse (`picking`); `ClothPlugin` adds `MeshPickingPlugin` when missing (pulls in `bevy_picking`) |
-//! | `egui` | yes | `ClothPanelPlugin`, an egui panel to steer every cloth (pulls in `bevy_egui`) |
+//! | `picking` | yes | pull and pin cloths with the mouse (`picking`) through the game's mesh picking backend, such as `MeshPickingPlugin`, which the game adds (pulls in `bevy_picking`) |
+//! | `egui` | no | `ClothPanelPlugin`, an egui panel to steer every cloth (pulls in `bevy_egui`) |
 //! | `debug` | no | `ClothDebugPlugin`, a gizmo view of strain, pins, grabs, contacts and colliders |
+//! | `lab` | no | `bevy_cloth::lab`: the accuracy and comparison measurements behind the docs' tables |
 //!
 //! Without default features the crate is headless: no renderer, no window,
 //! no `wgpu`; meshes are still kept up to date when `Assets<Mesh>` exists.
@@ -78,10 +80,11 @@
 #![warn(missing_docs)]
 
 pub mod error;
+#[cfg(feature = "lab")]
 pub mod lab;
 pub mod plugin;
 pub mod sim;
-pub mod simd;
+mod simd;
 
 pub use crate::error::ClothError;
 pub use crate::plugin::ClothPlugin;

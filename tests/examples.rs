@@ -54,6 +54,7 @@ fn each_windowed_example_sets_up_its_own_camera_light_and_plugins() {
         let text = source(name);
         for needed in [
             "DefaultPlugins",
+            "MeshPickingPlugin",
             "ClothPlugin::default()",
             "ClothPanelPlugin",
             "PanOrbitCameraPlugin",

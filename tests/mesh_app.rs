@@ -6,9 +6,9 @@
 mod common;
 
 use bevy::ecs::message::Messages;
-use bevy::math::primitives::{Circle, Sphere};
 use bevy::mesh::{MeshBuilder, Meshable, VertexAttributeValues};
 use bevy::prelude::*;
+use bevy::shape::{Circle, Sphere};
 use bevy_cloth::plugin::events::ClothDiverged;
 use bevy_cloth::prelude::*;
 use bevy_cloth::sim::connections::max_strain;

@@ -9,7 +9,7 @@ use bevy_cloth::sim::collision::contact::{Geometry, MovingCollider, collide_part
 use bevy_cloth::sim::collision::predict::{keep_nearest, predict_contacts, push_out_held};
 use bevy_cloth::sim::collision::shapes::Shape;
 use bevy_cloth::sim::connections::{Connections, max_strain};
-use bevy_cloth::sim::guard::{GuardState, step_guarded};
+use bevy_cloth::sim::guard::{GuardState, StepInput, step_guarded};
 use bevy_cloth::sim::integrate::StepBuffers;
 use bevy_cloth::sim::integrate::implicit::{Hold, SolveContact};
 use bevy_cloth::sim::particles::Particles;
@@ -76,17 +76,14 @@ fn a_disc_hung_from_its_rim_stays_whole_with_every_integrator() {
         let (mut buffers, mut guard) = (StepBuffers::default(), GuardState::default());
         let mut trips = 0;
         for _ in 0..120 {
-            let step = step_guarded(
+            let step = step_guarded(StepInput::new(
                 &mut p,
                 &links,
                 &s,
-                &[],
                 &mut buffers,
                 &mut guard,
                 DT,
-                None::<&mut NoContacts>,
-                false,
-            );
+            ));
             trips += step.report.is_some() as u32;
         }
         let strain = max_strain(links.type1(), &p.positions);
@@ -168,15 +165,8 @@ fn an_irregular_disc_drapes_on_a_ball_and_stays() {
         let mut worst = 0.0f32;
         for step in 0..300 {
             step_guarded(
-                &mut p,
-                &links,
-                &s,
-                &[],
-                &mut buffers,
-                &mut guard,
-                DT,
-                Some(&mut ball),
-                false,
+                StepInput::new(&mut p, &links, &s, &mut buffers, &mut guard, DT)
+                    .with_contacts(Some(&mut ball)),
             );
             if step >= 60 {
                 worst = worst.max(max_strain(links.type1(), &p.positions));
@@ -228,7 +218,7 @@ fn iterations(coarse: bool) -> (u32, f32) {
             DT,
             None::<&mut NoContacts>,
         );
-        total += buffers.implicit.last_iterations;
+        total += buffers.solver_iterations();
     }
     assert!(p.is_finite());
     (total, max_strain(links.type1(), &p.positions))

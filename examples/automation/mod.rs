@@ -230,8 +230,11 @@ fn scripted_drag(
 /// Logs once when the pointer first holds a particle (the rendering check
 /// looks for this line).
 fn report_grab(held: Res<PointerGrabs>, mut said: Local<bool>) {
-    if !*said && let Some((cloth, particle, ..)) = held.0.values().next() {
-        info!("pointer holds particle {particle} of cloth {cloth}");
+    if !*said && let Some((_, grab)) = held.iter().next() {
+        info!(
+            "pointer holds particle {} of cloth {}",
+            grab.particle, grab.cloth
+        );
         *said = true;
     }
 }

@@ -13,9 +13,9 @@
 //! **Error**: RMS distance (m) of the particles after 1 simulated second
 //! from an RK4 reference run at a step 50× below RK4's stable step.
 
+use bevy::platform::time::Instant;
 use std::f32::consts::FRAC_PI_2;
 use std::hint::black_box;
-use std::time::Instant;
 
 use bevy::math::{Quat, Vec3};
 

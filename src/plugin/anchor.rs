@@ -170,7 +170,7 @@ fn stop_if_pinned(particles: &mut ClothParticles, p: u32) {
 
 /// When `ClothAnchors` is removed, its still-pinned particles stop.
 pub(crate) fn stop_on_remove(
-    trigger: On<Remove, ClothAnchors>,
+    trigger: On<Remove<ClothAnchors>>,
     mut cloths: Query<(&ClothAnchors, &mut ClothParticles)>,
 ) {
     if let Ok((anchors, mut particles)) = cloths.get_mut(trigger.entity) {

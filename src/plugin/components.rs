@@ -246,6 +246,7 @@ impl ClothForces {
 /// ```
 #[derive(Component, Clone, Debug, Default, PartialEq, Reflect)]
 #[reflect(Component)]
+#[non_exhaustive]
 pub struct ClothStats {
     /// Fixed steps simulated so far.
     pub steps: u64,

@@ -75,7 +75,7 @@ pub(crate) fn update_creases(
 
 /// When `ClothCreases` is removed, the original rest lengths come back.
 pub(crate) fn remove_creases(
-    event: On<Remove, ClothCreases>,
+    event: On<Remove<ClothCreases>>,
     mut cloths: Query<(&mut ClothConnections, &mut ClothCreaseRecord)>,
 ) {
     if let Ok((mut connections, mut record)) = cloths.get_mut(event.entity) {

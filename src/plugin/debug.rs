@@ -25,9 +25,9 @@ use bevy::gizmos::config::GizmoConfigGroup;
 use bevy::gizmos::{AppGizmoBuilder, gizmos::Gizmos};
 use bevy::input::ButtonInput;
 use bevy::input::keyboard::KeyCode;
-use bevy::math::primitives::{Capsule3d, Cylinder, Plane3d, Sphere};
 use bevy::math::{Affine3A, Isometry3d, Vec3};
 use bevy::prelude::*;
+use bevy::shape::{Capsule3d, Cylinder, Plane3d, Sphere};
 
 use crate::plugin::anchor::ClothAnchors;
 use crate::plugin::collision::{ClothCollider, ClothCollision, ColliderShape, Shape};

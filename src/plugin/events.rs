@@ -39,6 +39,7 @@ pub const REST_STEPS: u32 = 30;
 
 /// A grab took hold of a particle (the fixed step it first acts).
 #[derive(EntityEvent, Clone, Copy, Debug, PartialEq, Reflect)]
+#[non_exhaustive]
 pub struct ClothGrabbed {
     /// The cloth.
     pub entity: Entity,
@@ -48,6 +49,7 @@ pub struct ClothGrabbed {
 
 /// A grab let go of its particle (the fixed step after the release).
 #[derive(EntityEvent, Clone, Copy, Debug, PartialEq, Reflect)]
+#[non_exhaustive]
 pub struct ClothReleased {
     /// The cloth.
     pub entity: Entity,
@@ -58,6 +60,7 @@ pub struct ClothReleased {
 /// The cloth came to rest: every free or grabbed particle has stayed slower than
 /// [`REST_SPEED`] for [`REST_STEPS`] fixed steps. It keeps being simulated.
 #[derive(EntityEvent, Clone, Copy, Debug, PartialEq, Reflect)]
+#[non_exhaustive]
 pub struct ClothAtRest {
     /// The cloth.
     pub entity: Entity,
@@ -66,6 +69,7 @@ pub struct ClothAtRest {
 /// A resting cloth moves again: a free or grabbed particle passed
 /// [`WAKE_SPEED`].
 #[derive(EntityEvent, Clone, Copy, Debug, PartialEq, Reflect)]
+#[non_exhaustive]
 pub struct ClothWoke {
     /// The cloth.
     pub entity: Entity,
@@ -128,6 +132,7 @@ impl RestTracker {
 /// }
 /// ```
 #[derive(Message, EntityEvent, Clone, Debug, PartialEq)]
+#[non_exhaustive]
 pub struct ClothDiverged {
     /// The cloth.
     #[event_target]

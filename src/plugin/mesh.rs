@@ -68,12 +68,12 @@ impl Default for ClothMeshSettings {
 /// last fixed step, for [`ClothMeshSettings::interpolate`]; written at the
 /// start of every step ([`ClothSystems::Prepare`](crate::ClothSystems::Prepare)).
 #[derive(Component, Clone, Debug, Default)]
-pub struct ClothPrevious {
+pub(crate) struct ClothPrevious {
     /// Positions in m.
-    pub positions: Vec<Vec3>,
+    pub(crate) positions: Vec<Vec3>,
     /// Whether the last step left every particle where it was, so there is
     /// nothing to interpolate.
-    pub still: bool,
+    pub(crate) still: bool,
 }
 
 /// Keeps each cloth's [`ClothPrevious`]: the positions before this step.
@@ -285,8 +285,13 @@ pub(crate) fn attach_cloth_meshes(
         let handle = meshes.add(cloth_mesh(cloth, &particles.positions, to_local(transform)));
         let mut e = commands.entity(entity);
         e.try_insert(Mesh3d(handle));
+        // Picked from both sides, and also when the game's mesh picking
+        // requires markers.
         #[cfg(feature = "picking")]
-        e.try_insert(bevy::picking::mesh_picking::ray_cast::RayCastBackfaces);
+        e.try_insert((
+            bevy::picking::mesh_picking::ray_cast::RayCastBackfaces,
+            bevy::picking::Pickable::default(),
+        ));
     }
 }
 

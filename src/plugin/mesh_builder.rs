@@ -254,8 +254,8 @@ pub const ATTRIBUTE_PIN: MeshVertexAttribute =
 #[cfg(test)]
 mod tests {
     use bevy::asset::RenderAssetUsages;
-    use bevy::math::primitives::Plane3d;
     use bevy::mesh::{Indices, MeshBuilder, Meshable, PrimitiveTopology, VertexAttributeValues};
+    use bevy::shape::Plane3d;
 
     use super::*;
 

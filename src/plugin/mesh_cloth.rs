@@ -292,8 +292,8 @@ pub(crate) fn float_attribute<'a>(mesh: &'a Mesh, name: &str) -> Option<&'a [f32
 #[cfg(test)]
 mod tests {
     use bevy::asset::RenderAssetUsages;
-    use bevy::math::primitives::{Annulus, Circle, Plane3d, Sphere};
     use bevy::mesh::{MeshBuilder, Meshable};
+    use bevy::shape::{Annulus, Circle, Plane3d, Sphere};
 
     use super::*;
 

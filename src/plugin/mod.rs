@@ -52,36 +52,48 @@ use crate::plugin::material::ClothMaterial;
 /// Needs Bevy's time (`MinimalPlugins` or `DefaultPlugins`); anchors need
 /// `TransformPlugin`; meshes need `Assets<Mesh>` (asset and mesh plugins).
 ///
+/// With the `picking` feature the pointer pulls cloths, through whichever
+/// picking backend the game adds: `ClothPlugin` adds none, because Bevy's
+/// `MeshPickingPlugin` with its default settings makes every mesh of the
+/// game pickable. Add it yourself (cloth meshes carry `Pickable` and
+/// `RayCastBackfaces`, so they are picked from both sides, also under
+/// `MeshPickingSettings::require_markers`). Without a mesh backend the
+/// plugin warns once at start-up, unless [`ClothPicking`]'s `enabled` is off.
+///
+/// [`ClothPicking`]: crate::plugin::picking::ClothPicking
+///
 /// ```no_run
 /// # use bevy::prelude::*;
 /// # use bevy_cloth::prelude::*;
+/// use bevy::picking::mesh_picking::MeshPickingPlugin;
+///
 /// App::new()
-///     .add_plugins(DefaultPlugins)
-///     // Cloths drawn with a custom material, picked by another backend.
-///     .add_plugins(ClothPlugin {
-///         default_material: false,
-///         mesh_picking: false,
-///     })
+///     .add_plugins((DefaultPlugins, MeshPickingPlugin))
+///     // Cloths drawn with a custom material.
+///     .add_plugins(ClothPlugin::default().with_default_material(false))
 ///     .run();
 /// ```
 #[derive(Clone, Debug)]
+#[non_exhaustive]
 pub struct ClothPlugin {
     /// With the `render` feature: give cloths that have no
     /// `MeshMaterial3d<StandardMaterial>` a double-sided default material.
     /// Turn off when your cloths use another material type.
     pub default_material: bool,
-    /// With the `picking` feature: add Bevy's `MeshPickingPlugin` when the
-    /// app has picking (`DefaultPlugins` do) but no mesh picking backend, so
-    /// the mouse can pull a cloth. Turn off when you pick with another
-    /// backend.
-    pub mesh_picking: bool,
+}
+
+impl ClothPlugin {
+    /// Sets [`default_material`](Self::default_material).
+    pub fn with_default_material(mut self, on: bool) -> Self {
+        self.default_material = on;
+        self
+    }
 }
 
 impl Default for ClothPlugin {
     fn default() -> Self {
         Self {
             default_material: true,
-            mesh_picking: true,
         }
     }
 }
@@ -175,15 +187,10 @@ impl Plugin for ClothPlugin {
     }
 
     fn finish(&self, app: &mut App) {
-        // Here rather than in `build`, so that the user's own
+        // Here rather than in `build`, so that the game's own
         // `MeshPickingPlugin`, added before or after this one, is seen.
         #[cfg(feature = "picking")]
-        if self.mesh_picking
-            && app.is_plugin_added::<bevy::picking::PickingPlugin>()
-            && !app.is_plugin_added::<bevy::picking::mesh_picking::MeshPickingPlugin>()
-        {
-            app.add_plugins(bevy::picking::mesh_picking::MeshPickingPlugin);
-        }
+        picking::warn_without_backend(app);
         #[cfg(not(feature = "picking"))]
         let _ = app;
     }

@@ -41,13 +41,17 @@ use crate::sim::settings::{ClothModel, Integrator, SimSettings};
 /// ```
 pub struct ClothPanelPlugin;
 
-/// What the panel shows: whether it is open, and a help line at its top.
+/// What the panel shows: whether it is open, a help line at its top, and a
+/// notice for the player (an asset that did not load, say).
 #[derive(Resource, Clone, Debug, PartialEq)]
+#[non_exhaustive]
 pub struct ClothPanel {
     /// Whether the panel is drawn.
     pub open: bool,
     /// A line of help shown at the top of the panel (none when empty).
     pub help: String,
+    /// A notice shown in red under the help (none when empty).
+    pub notice: String,
 }
 
 impl Default for ClothPanel {
@@ -55,6 +59,7 @@ impl Default for ClothPanel {
         Self {
             open: true,
             help: String::new(),
+            notice: String::new(),
         }
     }
 }
@@ -63,8 +68,8 @@ impl ClothPanel {
     /// An open panel with `help` at its top.
     pub fn with_help(help: impl Into<String>) -> Self {
         Self {
-            open: true,
             help: help.into(),
+            ..Self::default()
         }
     }
 }
@@ -80,10 +85,10 @@ impl Plugin for ClothPanelPlugin {
 
 /// How a cloth was when it was spawned, for the panel's reset.
 #[derive(Component, Clone, Debug)]
-pub struct SpawnState(pub ClothParticles);
+pub(crate) struct SpawnState(pub(crate) ClothParticles);
 
 fn remember_spawn_state(
-    event: On<Add, Cloth>,
+    event: On<Add<Cloth>>,
     mut commands: Commands,
     particles: Query<&ClothParticles>,
 ) {
@@ -106,6 +111,31 @@ fn log_slider(
             .logarithmic(true)
             .text(label),
     );
+}
+
+/// The panel's live figures, a line each, from the diagnostics' smoothed
+/// values (`None` before the first measurement, shown as "–"); one line
+/// saying so when the scene has no cloth.
+fn figures(value: impl Fn(&DiagnosticPath) -> Option<f64>, any_cloth: bool) -> Vec<String> {
+    if !any_cloth {
+        return vec!["no cloth in the scene".to_string()];
+    }
+    let show = |path: &DiagnosticPath, scale: f64, decimals: usize| {
+        value(path).filter(|v| v.is_finite()).map_or_else(
+            || "–".to_string(),
+            |v| format!("{:.*}", decimals, v * scale),
+        )
+    };
+    vec![
+        format!("{} µs per fixed step", show(&STEP_TIME, 1.0, 0)),
+        format!(
+            "{} substeps · {} solver iterations",
+            show(&SUBSTEPS, 1.0, 0),
+            show(&SOLVER_ITERATIONS, 1.0, 0)
+        ),
+        format!("max Type 1 strain {} %", show(&MAX_STRAIN, 100.0, 2)),
+        format!("kinetic energy {} mJ", show(&KINETIC_ENERGY, 1e3, 2)),
+    ]
 }
 
 #[expect(clippy::too_many_arguments, reason = "a Bevy system's parameters")]
@@ -136,6 +166,11 @@ fn panel(
         .show(ctx, |ui| {
             if !shown.help.is_empty() {
                 ui.label(egui::RichText::new(&shown.help).strong());
+            }
+            if !shown.notice.is_empty() {
+                ui.colored_label(egui::Color32::LIGHT_RED, &shown.notice);
+            }
+            if !(shown.help.is_empty() && shown.notice.is_empty()) {
                 ui.separator();
             }
             ui.horizontal(|ui| {
@@ -167,22 +202,10 @@ fn panel(
                     .as_ref()
                     .and_then(|s| s.get(path))
                     .and_then(|d| d.smoothed())
-                    .unwrap_or(f64::NAN)
             };
-            ui.label(format!("{:.0} µs per fixed step", value(&STEP_TIME)));
-            ui.label(format!(
-                "{:.0} substeps · {:.0} solver iterations",
-                value(&SUBSTEPS),
-                value(&SOLVER_ITERATIONS)
-            ));
-            ui.label(format!(
-                "max Type 1 strain {:.2} %",
-                100.0 * value(&MAX_STRAIN)
-            ));
-            ui.label(format!(
-                "kinetic energy {:.2} mJ",
-                1e3 * value(&KINETIC_ENERGY)
-            ));
+            for line in figures(value, !cloths.is_empty()) {
+                ui.label(line);
+            }
             ui.horizontal(|ui| {
                 if ui
                     .button(if pause.paused { "resume" } else { "pause" })
@@ -364,5 +387,21 @@ mod tests {
         assert_eq!(silk, ClothMaterial::DENIM);
         copy_material(&before, &ClothMaterial::Raw, &mut silk);
         assert_eq!(silk, ClothMaterial::Raw);
+    }
+
+    #[test]
+    fn the_figures_say_when_there_is_no_cloth_and_never_show_nan() {
+        let none = |_: &DiagnosticPath| None;
+        assert_eq!(figures(none, false), ["no cloth in the scene"]);
+        let nan = |_: &DiagnosticPath| Some(f64::NAN);
+        for lines in [figures(none, true), figures(nan, true)] {
+            assert_eq!(lines.len(), 4);
+            assert!(
+                lines.iter().all(|l| !l.contains("NaN") && l.contains('–')),
+                "{lines:?}"
+            );
+        }
+        let strain = |p: &DiagnosticPath| (*p == MAX_STRAIN).then_some(0.0123);
+        assert!(figures(strain, true)[2].contains("1.23 %"));
     }
 }

@@ -4,8 +4,10 @@
 //! unpins the nearest particle. Built on [`ClothGrabs`], so game code sees
 //! the player's grabs like its own.
 //!
-//! Needs Bevy's `MeshPickingPlugin`, which [`ClothPlugin`](crate::ClothPlugin)
-//! adds when the app has picking but no mesh backend. A UI that takes part
+//! Needs a picking backend that hits meshes, such as Bevy's
+//! `MeshPickingPlugin`, which the game adds (see
+//! [`ClothPlugin`](crate::ClothPlugin) for why the plugin does not); without
+//! one, the plugin warns once at start-up. A UI that takes part
 //! in picking (bevy_egui with its `picking` feature) sits in front of the
 //! cloth, so pointer events over a panel never reach it.
 //!
@@ -30,7 +32,7 @@
 
 use bevy::ecs::system::SystemParam;
 use bevy::picking::backend::ray::{RayId, RayMap};
-use bevy::picking::events::{Drag, DragEnd, Pointer, Press, Release};
+use bevy::picking::events::{PointerDrag, PointerDragEnd, PointerPress, PointerRelease};
 use bevy::picking::hover::HoverMap;
 use bevy::picking::pointer::{PointerButton, PointerId};
 use bevy::platform::collections::HashMap;
@@ -58,16 +60,39 @@ impl Default for ClothPicking {
     }
 }
 
-/// The grab each pointer holds: cloth, particle, camera, depth along the
-/// camera ray (m).
+/// A particle a pointer holds.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[non_exhaustive]
+pub struct PointerGrab {
+    /// The cloth.
+    pub cloth: Entity,
+    /// The held particle's index.
+    pub particle: u32,
+    /// The camera whose ray carries it.
+    pub camera: Entity,
+    /// Its depth along that camera's ray, m.
+    pub depth: f32,
+}
+
+/// The grab each pointer holds.
 #[derive(Resource, Clone, Debug, Default)]
-pub struct PointerGrabs(pub HashMap<PointerId, (Entity, u32, Entity, f32)>);
+pub struct PointerGrabs(HashMap<PointerId, PointerGrab>);
 
 impl PointerGrabs {
     /// Whether any pointer holds a particle (an orbit camera should then
     /// leave the mouse alone).
     pub fn active(&self) -> bool {
         !self.0.is_empty()
+    }
+
+    /// The grab `pointer` holds, if any.
+    pub fn get(&self, pointer: &PointerId) -> Option<&PointerGrab> {
+        self.0.get(pointer)
+    }
+
+    /// Every pointer's grab.
+    pub fn iter(&self) -> impl Iterator<Item = (&PointerId, &PointerGrab)> {
+        self.0.iter()
     }
 }
 
@@ -125,6 +150,25 @@ impl ClothPointer<'_, '_> {
     }
 }
 
+/// Warns once when the app has picking but no mesh picking backend, so the
+/// pointer cannot reach a cloth (unless cloth picking is turned off).
+pub(crate) fn warn_without_backend(app: &App) {
+    let enabled = app
+        .world()
+        .get_resource::<ClothPicking>()
+        .is_none_or(|p| p.enabled);
+    if enabled
+        && app.is_plugin_added::<bevy::picking::PickingPlugin>()
+        && !app.is_plugin_added::<bevy::picking::mesh_picking::MeshPickingPlugin>()
+    {
+        warn!(
+            "bevy_cloth: the pointer cannot grab cloths, as the app has no mesh picking \
+             backend: add `MeshPickingPlugin` (bevy::picking::mesh_picking), or set \
+             `ClothPicking {{ enabled: false, .. }}` to silence this"
+        );
+    }
+}
+
 pub(crate) fn configure(app: &mut App) {
     app.init_resource::<ClothPicking>()
         .init_resource::<PointerGrabs>()
@@ -136,14 +180,13 @@ pub(crate) fn configure(app: &mut App) {
 }
 
 fn press(
-    event: On<Pointer<Press>>,
+    event: On<PointerPress>,
     settings: Res<ClothPicking>,
     mut held: ResMut<PointerGrabs>,
     mut cloths: Query<(&mut ClothParticles, &mut ClothGrabs)>,
 ) {
     let cloth = event.entity;
-    let (Ok((mut particles, mut grabs)), Some(hit)) =
-        (cloths.get_mut(cloth), event.event.hit.position)
+    let (Ok((mut particles, mut grabs)), Some(hit)) = (cloths.get_mut(cloth), event.hit.position)
     else {
         return;
     };
@@ -153,13 +196,18 @@ fn press(
     let Some(p) = nearest(&particles, hit) else {
         return;
     };
-    match event.event.button {
+    match event.button {
         PointerButton::Primary => {
             let at = particles.positions[p as usize];
             grabs.grab(p, at, settings.mode);
             held.0.insert(
-                event.pointer_id,
-                (cloth, p, event.event.hit.camera, event.event.hit.depth),
+                event.pointer.id,
+                PointerGrab {
+                    cloth,
+                    particle: p,
+                    camera: event.hit.camera,
+                    depth: event.hit.depth,
+                },
             );
         }
         PointerButton::Secondary => {
@@ -175,15 +223,21 @@ fn press(
 }
 
 fn drag(
-    event: On<Pointer<Drag>>,
+    event: On<PointerDrag>,
     rays: Res<RayMap>,
     held: Res<PointerGrabs>,
     mut cloths: Query<&mut ClothGrabs>,
 ) {
-    let Some(&(cloth, particle, camera, depth)) = held.0.get(&event.pointer_id) else {
+    let Some(&PointerGrab {
+        cloth,
+        particle,
+        camera,
+        depth,
+    }) = held.get(&event.pointer.id)
+    else {
         return;
     };
-    let Some(ray) = rays.map.get(&RayId::new(camera, event.pointer_id)) else {
+    let Some(ray) = rays.map.get(&RayId::new(camera, event.pointer.id)) else {
         return;
     };
     if let Ok(mut grabs) = cloths.get_mut(cloth) {
@@ -192,29 +246,23 @@ fn drag(
 }
 
 /// A press and release on the cloth without dragging.
-fn release(
-    event: On<Pointer<Release>>,
-    held: ResMut<PointerGrabs>,
-    cloths: Query<&mut ClothGrabs>,
-) {
-    if event.event.button == PointerButton::Primary {
-        let_go(event.pointer_id, held, cloths);
+fn release(event: On<PointerRelease>, held: ResMut<PointerGrabs>, cloths: Query<&mut ClothGrabs>) {
+    if event.button == PointerButton::Primary {
+        let_go(event.pointer.id, held, cloths);
     }
 }
 
 /// The end of a drag (sent to the dragged cloth wherever the pointer is).
-fn drag_end(
-    event: On<Pointer<DragEnd>>,
-    held: ResMut<PointerGrabs>,
-    cloths: Query<&mut ClothGrabs>,
-) {
-    if event.event.button == PointerButton::Primary {
-        let_go(event.pointer_id, held, cloths);
+fn drag_end(event: On<PointerDragEnd>, held: ResMut<PointerGrabs>, cloths: Query<&mut ClothGrabs>) {
+    if event.button == PointerButton::Primary {
+        let_go(event.pointer.id, held, cloths);
     }
 }
 
 fn let_go(pointer: PointerId, mut held: ResMut<PointerGrabs>, mut cloths: Query<&mut ClothGrabs>) {
-    if let Some((cloth, particle, ..)) = held.0.remove(&pointer)
+    if let Some(PointerGrab {
+        cloth, particle, ..
+    }) = held.0.remove(&pointer)
         && let Ok(mut grabs) = cloths.get_mut(cloth)
     {
         grabs.release(particle);

@@ -33,7 +33,7 @@ use crate::plugin::events::ClothDiverged;
 use crate::plugin::events::{ClothAtRest, ClothWoke, RestChange};
 use crate::plugin::interaction::ClothGrabs;
 use crate::plugin::tether::{ClothTethers, TetherScratch};
-use crate::sim::guard::step_guarded;
+use crate::sim::guard::{StepInput, step_guarded};
 
 /// Checks what the step indexes so that user edits can never make it panic:
 /// equal array lengths, and every link inside the particle range.
@@ -98,7 +98,7 @@ impl Measured {
 
 /// Preallocated integrator scratch for one cloth (not reflected).
 #[derive(Component, Clone, Debug, Default)]
-pub struct ClothScratch {
+pub(crate) struct ClothScratch {
     /// Stage buffers of the integrators.
     pub buffers: crate::sim::integrate::StepBuffers,
     /// Indices of the scene colliders near this cloth in the current step.
@@ -108,14 +108,8 @@ pub struct ClothScratch {
     pub(crate) warned_invalid: bool,
     /// The divergence guard's state.
     pub(crate) guard: crate::sim::guard::GuardState,
-    /// A divergence to report at the end of the step: reason, substeps,
-    /// integrator, recovered.
-    pub(crate) pending: Option<(
-        crate::sim::guard::Divergence,
-        u32,
-        crate::sim::settings::Integrator,
-        bool,
-    )>,
+    /// A divergence to report at the end of the step.
+    pub(crate) pending: Option<crate::sim::guard::GuardReport>,
     /// Whether a divergence of this cloth was logged already.
     pub(crate) warned_diverged: bool,
     /// What the step measured that its writeback reuses.
@@ -275,15 +269,17 @@ pub(crate) fn step_cloths(
         });
         let started = Instant::now();
         let step = step_guarded(
-            &mut item.particles,
-            connections,
-            settings,
-            &item.forces.0,
-            &mut scratch.buffers,
-            &mut scratch.guard,
-            dt,
-            hook.as_mut(),
-            helper,
+            StepInput::new(
+                &mut item.particles,
+                connections,
+                settings,
+                &mut scratch.buffers,
+                &mut scratch.guard,
+                dt,
+            )
+            .with_external(&item.forces.0)
+            .with_contacts(hook.as_mut())
+            .with_helper_thread(helper),
         );
         if let Some(hook) = hook {
             let (against, itself) = hook.counts;
@@ -390,7 +386,14 @@ fn report_divergence(
     out: &mut MessageWriter<ClothDiverged>,
     commands: &mut Commands,
 ) {
-    let Some((reason, substeps, integrator, recovered)) = scratch.pending.take() else {
+    let Some(crate::sim::guard::GuardReport {
+        reason,
+        substeps,
+        integrator,
+        recovered,
+        ..
+    }) = scratch.pending.take()
+    else {
         return;
     };
     if !scratch.warned_diverged {

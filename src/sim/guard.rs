@@ -55,11 +55,12 @@ use crate::sim::model::Dynamics;
 use crate::sim::particles::Particles;
 pub use crate::sim::settings::{Fallback, GuardSettings};
 use crate::sim::settings::{Integrator, MAX_SUBSTEPS, SimSettings};
-use crate::sim::step::{ContactHook, Substep, step_cloth_with};
+use crate::sim::step::{ContactHook, NoContacts, Substep, step_cloth_with};
 use crate::sim::team::{self, SPLIT_PARTICLES};
 
 /// Why the guard tripped.
 #[derive(Clone, Copy, Debug, PartialEq, Reflect)]
+#[non_exhaustive]
 pub enum Divergence {
     /// A position or velocity became NaN or infinite during the step.
     NonFinite,
@@ -203,8 +204,36 @@ impl Limits {
     }
 }
 
+/// A divergence [`step_guarded`] reports: what tripped first and what the
+/// cloth runs with now.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[non_exhaustive]
+pub struct GuardReport {
+    /// What tripped (on the first attempt).
+    pub reason: Divergence,
+    /// The substeps the cloth runs with now.
+    pub substeps: u32,
+    /// The integrator the cloth runs with now.
+    pub integrator: Integrator,
+    /// Whether a retry succeeded (otherwise speeds were clamped or the
+    /// cloth held for this step).
+    pub recovered: bool,
+}
+
+impl GuardReport {
+    fn new(reason: Divergence, settings: &SimSettings, recovered: bool) -> Self {
+        Self {
+            reason,
+            substeps: settings.substeps,
+            integrator: settings.integrator,
+            recovered,
+        }
+    }
+}
+
 /// What [`step_guarded`] did.
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[non_exhaustive]
 pub struct GuardedStep {
     /// Substeps of the attempt that was kept.
     pub substeps: u32,
@@ -213,47 +242,128 @@ pub struct GuardedStep {
     /// The Type 1 strain of the state the step left, if the check measured
     /// it (dimensionless).
     pub strain: Option<f32>,
-    /// The divergence to report, if the step tripped: the first reason,
-    /// the substeps and integrator the cloth runs with now, and whether a
-    /// retry succeeded.
-    pub report: Option<(Divergence, u32, Integrator, bool)>,
+    /// The divergence to report, if the step tripped.
+    pub report: Option<GuardReport>,
 }
 
-/// One fixed step of `dt` s of one cloth under the divergence guard of
-/// `settings` (module docs): [`step_cloth_with`] plus the input repair, the
-/// check, the retries and the fallback. `state` keeps the guard's memory
-/// between steps; `hook` resolves contacts after every substep; `helper`
-/// lets a large cloth measure its strain on the helper thread.
+/// One fixed step of one cloth, as [`step_guarded`] takes it: the cloth's
+/// state, its links and settings, the step length, and optionally external
+/// forces, a contact hook and the helper thread. Made by [`StepInput::new`]
+/// and the `with_…` methods, so that a new option does not break callers.
+#[non_exhaustive]
+pub struct StepInput<'a, H: ContactHook = NoContacts> {
+    /// Positions (m), velocities (m/s) and inverse masses (1/kg).
+    pub particles: &'a mut Particles,
+    /// The cloth's links.
+    pub connections: &'a Connections,
+    /// The step's settings.
+    pub settings: &'a SimSettings,
+    /// External force per particle (N), or empty for none.
+    pub external: &'a [Vec3],
+    /// The integrators' scratch, kept between steps.
+    pub buffers: &'a mut StepBuffers,
+    /// The guard's memory, kept between steps.
+    pub state: &'a mut GuardState,
+    /// The step's length, s.
+    pub dt: f32,
+    /// Resolves contacts after every substep (and inside the implicit
+    /// solve), if any.
+    pub contacts: Option<&'a mut H>,
+    /// Whether a large cloth may measure its strain on the helper thread.
+    pub helper_thread: bool,
+}
+
+impl<'a> StepInput<'a, NoContacts> {
+    /// A step of `dt` s of the cloth `particles` with `connections` under
+    /// `settings`, keeping its scratch in `buffers` and the guard's memory
+    /// in `state`: no external force, no contacts, no helper thread.
+    pub fn new(
+        particles: &'a mut Particles,
+        connections: &'a Connections,
+        settings: &'a SimSettings,
+        buffers: &'a mut StepBuffers,
+        state: &'a mut GuardState,
+        dt: f32,
+    ) -> Self {
+        Self {
+            particles,
+            connections,
+            settings,
+            external: &[],
+            buffers,
+            state,
+            dt,
+            contacts: None,
+            helper_thread: false,
+        }
+    }
+}
+
+impl<'a, H: ContactHook> StepInput<'a, H> {
+    /// External forces, one per particle (N).
+    pub fn with_external(mut self, forces: &'a [Vec3]) -> Self {
+        self.external = forces;
+        self
+    }
+
+    /// Contacts resolved by `hook` (none when `None`).
+    pub fn with_contacts<C: ContactHook>(self, hook: Option<&'a mut C>) -> StepInput<'a, C> {
+        StepInput {
+            particles: self.particles,
+            connections: self.connections,
+            settings: self.settings,
+            external: self.external,
+            buffers: self.buffers,
+            state: self.state,
+            dt: self.dt,
+            contacts: hook,
+            helper_thread: self.helper_thread,
+        }
+    }
+
+    /// Lets a large cloth measure its strain on the helper thread.
+    pub fn with_helper_thread(mut self, on: bool) -> Self {
+        self.helper_thread = on;
+        self
+    }
+}
+
+/// One fixed step of one cloth under the divergence guard of its settings
+/// (module docs): [`step_cloth_with`] plus the input repair, the check, the
+/// retries and the fallback. [`StepInput`] says what is stepped.
 ///
 /// ```
 /// use bevy_cloth::prelude::*;
-/// use bevy_cloth::sim::guard::{GuardState, step_guarded};
+/// use bevy_cloth::sim::guard::{GuardState, StepInput, step_guarded};
 /// use bevy_cloth::sim::integrate::StepBuffers;
-/// use bevy_cloth::sim::step::NoContacts;
 ///
 /// let mut cloth = ClothBuilder::new(8, 8).pin_corner(GridCorner::TopLeft).build().unwrap();
 /// let settings = SimSettings::default();
 /// let (mut buffers, mut guard) = (StepBuffers::default(), GuardState::default());
 /// cloth.particles.positions[20].x = f32::NAN; // a bug in game code
-/// let step = step_guarded(
-///     &mut cloth.particles, &cloth.connections, &settings, &[],
-///     &mut buffers, &mut guard, 1.0 / 60.0, None::<&mut NoContacts>, false,
-/// );
+/// let step = step_guarded(StepInput::new(
+///     &mut cloth.particles,
+///     &cloth.connections,
+///     &settings,
+///     &mut buffers,
+///     &mut guard,
+///     1.0 / 60.0,
+/// ));
 /// assert!(cloth.particles.is_finite());
 /// assert!(step.report.is_some());
 /// ```
-#[expect(clippy::too_many_arguments, reason = "one step's inputs, each named")]
-pub fn step_guarded<H: ContactHook>(
-    particles: &mut Particles,
-    connections: &Connections,
-    settings: &SimSettings,
-    external: &[Vec3],
-    buffers: &mut StepBuffers,
-    state: &mut GuardState,
-    dt: f32,
-    mut hook: Option<&mut H>,
-    helper: bool,
-) -> GuardedStep {
+pub fn step_guarded<H: ContactHook>(input: StepInput<'_, H>) -> GuardedStep {
+    let StepInput {
+        particles,
+        connections,
+        settings,
+        external,
+        buffers,
+        state,
+        dt,
+        contacts: mut hook,
+        helper_thread: helper,
+    } = input;
     let guard = settings.guard;
     let mut effective = settings.clone();
     if let Some((substeps, integrator)) = state.boost {
@@ -347,10 +457,8 @@ pub fn step_guarded<H: ContactHook>(
         });
         let Some(reason) = diverged else {
             let report = match (tripped, input) {
-                (Some(first), _) => Some((first, effective.substeps, effective.integrator, true)),
-                (None, Some(input)) => {
-                    Some((input, effective.substeps, effective.integrator, true))
-                }
+                (Some(first), _) => Some(GuardReport::new(first, &effective, true)),
+                (None, Some(input)) => Some(GuardReport::new(input, &effective, true)),
                 (None, None) => {
                     state.relax(settings.integrator, base, settings.adaptive.is_some());
                     None
@@ -546,7 +654,7 @@ fn kept(
         substeps: effective.substeps,
         integrator: effective.integrator,
         strain: None,
-        report: Some((first, effective.substeps, effective.integrator, recovered)),
+        report: Some(GuardReport::new(first, &effective, recovered)),
     }
 }
 

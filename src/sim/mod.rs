@@ -12,9 +12,10 @@
 //! helper thread and worker pool that large steps share their work with
 //! (`team`, [`workers`]).
 //!
-//! What it may import: [`bevy::math`], [`bevy::reflect`] (the types derive
-//! `Reflect` so an inspector can show them), [`crate::error`] and
-//! [`crate::simd`]. It names no ECS type (no component, resource, query,
+//! What it may import: [`bevy::math`], [`bevy::shape`] (shapes and
+//! bounding boxes), [`bevy::reflect`] (the types derive `Reflect` so an
+//! inspector can show them), [`bevy::platform`] (a clock that also works in
+//! a browser), [`crate::error`] and `crate::simd`. It names no ECS type (no component, resource, query,
 //! command, entity, message, task pool or app); `tests/architecture.rs`
 //! checks it. The [`plugin`](crate::plugin) wraps these types in
 //! components.
@@ -22,9 +23,8 @@
 //! ```
 //! use bevy::math::Vec3;
 //! use bevy_cloth::sim::{
-//!     connections::Connections, guard::{GuardState, step_guarded},
+//!     connections::Connections, guard::{GuardState, StepInput, step_guarded},
 //!     integrate::StepBuffers, particles::Particles, settings::SimSettings,
-//!     step::NoContacts,
 //! };
 //!
 //! // A 10×10 sheet, 1 m wide, hanging from its top corners, stepped 1 s.
@@ -39,10 +39,9 @@
 //! let settings = SimSettings::default();
 //! let (mut buffers, mut guard) = (StepBuffers::default(), GuardState::default());
 //! for _ in 0..60 {
-//!     let step = step_guarded(
-//!         &mut particles, &connections, &settings, &[], &mut buffers,
-//!         &mut guard, 1.0 / 60.0, None::<&mut NoContacts>, false,
-//!     );
+//!     let step = step_guarded(StepInput::new(
+//!         &mut particles, &connections, &settings, &mut buffers, &mut guard, 1.0 / 60.0,
+//!     ));
 //!     assert!(step.report.is_none());
 //! }
 //! assert!(particles.is_finite() && particles.positions[0] == Vec3::new(0.0, 2.0, 0.0));

@@ -21,12 +21,26 @@
 //!
 //! A job must not panic; if one half does anyway, the other stops at its
 //! next barrier and the panic is raised on the calling thread.
+//!
+//! A build without threads ([`THREADS`] is false: WebAssembly, as in a
+//! browser, or any target built with `--cfg bevy_cloth_no_threads`) never spawns the helper: [`claim`] is
+//! `None` and [`both`] runs its two halves one after the other on the
+//! calling thread. The single-thread solve sums in the same halves as the
+//! shared one, so both builds give the same bits.
 
 use std::panic::{AssertUnwindSafe, catch_unwind, resume_unwind};
 use std::sync::atomic::{AtomicBool, AtomicU32, AtomicU64, Ordering};
 use std::sync::{Mutex, MutexGuard, OnceLock};
 use std::thread::Thread;
-use std::time::{Duration, Instant};
+use std::time::Duration;
+
+use bevy::platform::time::Instant;
+
+/// Whether this build may run work on a thread of its own, chosen at
+/// compile time: not on WebAssembly (a browser's page has one thread, and
+/// the standard library's spawn fails there), nor when built with
+/// `--cfg bevy_cloth_no_threads` (how the host tests that configuration).
+pub(crate) const THREADS: bool = cfg!(not(any(bevy_cloth_no_threads, target_family = "wasm")));
 
 /// Particles from which a cloth's work is split with the helper thread:
 /// below, a 32×32 cloth's product takes ~5 µs, too little for the
@@ -134,8 +148,13 @@ struct Helper {
 /// The helper once spawned; `None` inside if the thread could not be.
 static HELPER: OnceLock<Option<&'static Helper>> = OnceLock::new();
 
-/// The helper, spawned on first use; `None` if the thread could not be.
+/// The helper, spawned on first use; `None` if the thread could not be,
+/// and always `None` in a build without [`THREADS`] (unless a test lends it,
+/// see [`lend_helper`]).
 fn helper() -> Option<&'static Helper> {
+    if !THREADS && !lent() {
+        return None;
+    }
     *HELPER.get_or_init(|| {
         let (tx, rx) = std::sync::mpsc::channel::<&'static Helper>();
         let spawned = std::thread::Builder::new()
@@ -195,6 +214,43 @@ impl Helper {
             spin_from = Instant::now();
         }
     }
+}
+
+/// Whether the helper can be had on this thread: in a build with
+/// [`THREADS`], or where a test lent it.
+#[cfg(test)]
+pub(crate) fn available() -> bool {
+    THREADS || lent()
+}
+
+#[cfg(test)]
+thread_local! {
+    /// Set by [`lend_helper`] on the test's own thread.
+    static LENT: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
+}
+
+/// Whether a test on this thread has lent itself the helper.
+#[cfg(test)]
+fn lent() -> bool {
+    LENT.with(std::cell::Cell::get)
+}
+
+/// Whether a test on this thread has lent itself the helper: never outside
+/// tests.
+#[cfg(not(test))]
+const fn lent() -> bool {
+    false
+}
+
+/// Runs `f` with the helper available on this thread even in a build
+/// without [`THREADS`]: how a test of that build obtains the two-thread
+/// result it compares the single-thread one with.
+#[cfg(test)]
+pub(crate) fn lend_helper<R>(f: impl FnOnce() -> R) -> R {
+    LENT.with(|l| l.set(true));
+    let result = catch_unwind(AssertUnwindSafe(f));
+    LENT.with(|l| l.set(false));
+    result.unwrap_or_else(|e| resume_unwind(e))
 }
 
 /// Wakes the helper, if there is one, to spin for a job for a few ms: a

@@ -31,7 +31,8 @@ impl Workers for OneThread {
 /// Runs the jobs on `threads` scoped threads of the standard library,
 /// spawned for each batch: for tools and tests without a pool of their own
 /// (a long-lived pool, such as Bevy's compute pool, spawns nothing per
-/// batch).
+/// batch). In a build without threads (WebAssembly) it runs every job on
+/// the calling thread, as [`OneThread`] does.
 #[derive(Clone, Copy, Debug)]
 pub struct ScopedThreads(pub usize);
 
@@ -41,6 +42,9 @@ impl Workers for ScopedThreads {
     }
 
     fn run_all<'a>(&self, jobs: Vec<Box<dyn FnOnce() -> bool + Send + 'a>>) -> bool {
+        if !crate::sim::team::THREADS {
+            return OneThread.run_all(jobs);
+        }
         let threads = self.threads();
         let mut shares: Vec<Vec<_>> = (0..threads).map(|_| Vec::new()).collect();
         for (k, job) in jobs.into_iter().enumerate() {

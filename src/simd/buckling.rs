@@ -76,6 +76,7 @@ pub fn pairs(level: Level, law: Law, links: Links, out: [&mut [f32]; 3]) -> bool
 }
 
 /// What [`pairs`] computes, one link at a time.
+#[cfg(test)]
 pub fn reference(law: Law, links: Links, out: [&mut [f32]; 3]) {
     let m = links.len();
     let [ox, oy, oz] = out;

@@ -48,11 +48,6 @@ impl Product<'_> {
         self.mass.len()
     }
 
-    /// Whether there are no particles.
-    pub fn is_empty(&self) -> bool {
-        self.mass.is_empty()
-    }
-
     /// Panics unless the kernels' loads stay inside the arrays: `free` as
     /// long as `mass`; every `δ ≤ pad`; every stream array at least
     /// `pad + n + LANES` long and `d` at least `n + 2·pad + LANES`.
@@ -125,6 +120,7 @@ pub fn gather<'a>(
 
 /// What [`gather`] computes, one particle and one term at a time (its
 /// kernels fuse multiplies and adds, so they agree to rounding).
+#[cfg(test)]
 pub fn reference<'a>(
     product: &Product,
     streams: impl Iterator<Item = Blocks<'a>> + Clone,

@@ -58,6 +58,7 @@ impl Level {
 
     /// Every level this CPU runs, narrowest first (for tests that compare
     /// each with [`Level::Scalar`]).
+    #[cfg(test)]
     pub fn available() -> Vec<Level> {
         [Level::Scalar, Level::Avx2, Level::Avx512]
             .into_iter()

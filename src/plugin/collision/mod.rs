@@ -403,28 +403,28 @@ pub fn resolve_substep(
 /// [`predict`](predict::predict_contacts) lists inside their solve;
 /// [`resolve_substep`] resolves the rest after every substep, leaving the
 /// particles the solve held alone.
-pub struct SceneContacts<'a> {
+pub(crate) struct SceneContacts<'a> {
     /// The scene.
-    pub scene: &'a ColliderScene,
+    pub(crate) scene: &'a ColliderScene,
     /// The scene's colliders near the cloth.
-    pub near: &'a [usize],
+    pub(crate) near: &'a [usize],
     /// Contact thickness, m.
-    pub thickness: f32,
+    pub(crate) thickness: f32,
     /// Whether a large cloth may share the work with the helper thread.
-    pub helper: bool,
+    pub(crate) helper: bool,
     /// The cloth, its self-collision thickness (m) and buffers, when it
     /// collides with itself.
-    pub self_collision: Option<(&'a Cloth, f32, &'a mut SelfCollisionBuffers)>,
+    pub(crate) self_collision: Option<(&'a Cloth, f32, &'a mut SelfCollisionBuffers)>,
     /// Whether the implicit solve holds contacts
     /// ([`ClothCollision::in_solve`]).
-    pub in_solve: bool,
+    pub(crate) in_solve: bool,
     /// The cloth's tethers and their slack, applied before the contacts
     /// ([`ClothTethers`](crate::plugin::tether::ClothTethers)).
-    pub tethers: Option<(&'a Tethers, f32)>,
+    pub(crate) tethers: Option<(&'a Tethers, f32)>,
     /// Scratch: the inverse masses with the held particles' zeroed.
-    pub masked: &'a mut Vec<f32>,
+    pub(crate) masked: &'a mut Vec<f32>,
     /// Tests and contacts so far: against colliders, with itself.
-    pub counts: (Counts, Counts),
+    pub(crate) counts: (Counts, Counts),
 }
 
 impl ContactHook for SceneContacts<'_> {

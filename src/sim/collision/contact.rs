@@ -399,8 +399,8 @@ mod tests {
 
     #[test]
     fn mesh_contacts_cross_and_rest() {
-        use bevy::math::primitives::Cuboid;
         use bevy::mesh::{MeshBuilder, Meshable};
+        use bevy::shape::Cuboid;
         let mesh = TriMesh::from_mesh(&Cuboid::new(2.0, 0.02, 2.0).mesh().build()).unwrap();
         let c = still(Geometry::Mesh(&mesh), Vec3::ZERO);
         // Through the 2 cm slab in one step: caught at the top face.
@@ -437,8 +437,8 @@ mod tests {
 
     #[test]
     fn seed_pass_answers_an_edge_poking_through_a_cloth_triangle() {
-        use bevy::math::primitives::Cuboid;
         use bevy::mesh::{MeshBuilder, Meshable};
+        use bevy::shape::Cuboid;
         // A thin tall box whose top edge pokes up through a large cloth
         // triangle whose vertices are all far from the box.
         let mesh = TriMesh::from_mesh(&Cuboid::new(0.02, 1.0, 0.02).mesh().build()).unwrap();

@@ -2,7 +2,8 @@
 //! volume hierarchy over them, so a query touches `O(log n)` triangles and a
 //! 10 000-triangle table costs about what a 12-triangle one does.
 
-use bevy::math::{Vec3, bounding::Aabb3d};
+use bevy::math::Vec3;
+use bevy::shape::Aabb3d;
 
 use crate::error::ClothError;
 
@@ -209,8 +210,8 @@ pub fn segment_triangle(p0: Vec3, p1: Vec3, [a, b, c]: [Vec3; 3]) -> Option<f32>
 #[cfg(test)]
 mod tests {
     use super::*;
-    use bevy::math::primitives::{Cuboid, Sphere};
     use bevy::mesh::{MeshBuilder, Meshable};
+    use bevy::shape::{Cuboid, Sphere};
 
     #[test]
     fn bvh_query_finds_exactly_the_overlapping_triangles() {

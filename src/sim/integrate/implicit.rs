@@ -30,7 +30,7 @@
 //! are zeroed, so its `Δv` is exactly 0 and it keeps the velocity it was
 //! given (0, or an anchor's). No step allocates once the buffers are warm.
 
-use std::time::Instant;
+use bevy::platform::time::Instant;
 
 use bevy::math::Vec3;
 

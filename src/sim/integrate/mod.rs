@@ -47,33 +47,33 @@ fn flat_mut(v: &mut [Vec3]) -> &mut [f32] {
     bytemuck::cast_slice_mut(v)
 }
 
-/// Preallocated per-cloth scratch for the integrators (five vectors of one
-/// `Vec3` per particle).
+/// Preallocated per-cloth scratch for the integrators, kept between steps
+/// (its contents are the integrators' own).
 #[derive(Clone, Debug, Default)]
 pub struct StepBuffers {
     /// Accelerations of the current stage (m/s²).
-    pub accel: Vec<Vec3>,
+    pub(crate) accel: Vec<Vec3>,
     /// Stage positions (RK4), m.
-    pub stage_x: Vec<Vec3>,
+    pub(crate) stage_x: Vec<Vec3>,
     /// Stage velocities (RK4), m/s.
-    pub stage_v: Vec<Vec3>,
+    pub(crate) stage_v: Vec<Vec3>,
     /// Weighted sum of the position slopes (RK4), m/s.
-    pub sum_x: Vec<Vec3>,
+    pub(crate) sum_x: Vec<Vec3>,
     /// Weighted sum of the velocity slopes (RK4), m/s².
-    pub sum_v: Vec<Vec3>,
+    pub(crate) sum_v: Vec<Vec3>,
     /// Positions at the start of the substep (m), kept only when contacts
     /// are resolved (see [`step_cloth_with`](crate::sim::step::step_cloth_with)).
-    pub substep_start: Vec<Vec3>,
+    pub(crate) substep_start: Vec<Vec3>,
     /// Buffers of the implicit integrators (sized on first use).
-    pub implicit: ImplicitBuffers,
+    pub(crate) implicit: ImplicitBuffers,
     /// The explicit integrators' force streams (built on first use).
-    pub streams: crate::sim::model::streams::ForceStreams,
+    pub(crate) streams: crate::sim::model::streams::ForceStreams,
     /// Per-particle sums of the adaptive substep estimate
     /// ([`adaptive`](crate::sim::adaptive)), filled only when it is on.
-    pub mode_sums: Vec<crate::sim::adaptive::ModeSums>,
+    pub(crate) mode_sums: Vec<crate::sim::adaptive::ModeSums>,
     /// The threads the step may spread its force bands over (none by
     /// default: the calling thread alone).
-    pub workers: crate::sim::workers::Pool,
+    pub(crate) workers: crate::sim::workers::Pool,
 }
 
 impl StepBuffers {
@@ -82,6 +82,25 @@ impl StepBuffers {
         let mut b = Self::default();
         b.resize(n);
         b
+    }
+
+    /// Lets the step spread its force bands over `workers` (by default it
+    /// runs on the calling thread alone).
+    pub fn with_workers(mut self, workers: crate::sim::workers::Pool) -> Self {
+        self.workers = workers;
+        self
+    }
+
+    /// Forgets the implicit integrators' history (BDF2's last step and the
+    /// contacts' holds), as after a teleport: the next BDF2 step is a
+    /// backward-Euler one.
+    pub fn reset_history(&mut self) {
+        self.implicit.reset_history();
+    }
+
+    /// Conjugate-gradient iterations of the last implicit substep.
+    pub fn solver_iterations(&self) -> u32 {
+        self.implicit.last_iterations
     }
 
     /// Makes room for `n` particles; allocates only when `n` changes.

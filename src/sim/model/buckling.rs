@@ -129,12 +129,12 @@ impl BucklingTable {
 
     /// Replaces every `s` in `values` by `g(s)`, as [`g`](Self::g) gives
     /// it bit for bit, eight at a time with AVX2's gathers
-    /// where the CPU has them ([`simd::table`](crate::simd::table)).
+    /// where the CPU has them (`simd::table`).
     pub fn g_in_place(&self, values: &mut [f32]) {
         crate::simd::table::g_in_place(&self.coefficients, values);
     }
 
-    /// The pieces' coefficients, as [`simd::table`](crate::simd::table)
+    /// The pieces' coefficients, as `simd::table`
     /// reads them.
     pub fn pieces(&self) -> &crate::simd::table::Pieces {
         &self.coefficients

@@ -1,8 +1,8 @@
 use std::collections::BTreeSet;
 
 use bevy::math::Vec3;
-use bevy::math::primitives::Plane3d;
 use bevy::mesh::{Mesh, MeshBuilder, Meshable};
+use bevy::shape::Plane3d;
 use proptest::prelude::*;
 
 use super::*;

@@ -4,12 +4,13 @@
 use std::panic::{AssertUnwindSafe, catch_unwind};
 
 use super::*;
-use crate::sim::team::{Claim, claim};
+use crate::sim::team::{self, Claim, claim, lend_helper};
 
-/// The helper, once no other test is using it.
+/// The helper, once no other test is using it (lent to the test in a build
+/// without threads).
 fn the_helper() -> Claim {
     for _ in 0..10_000 {
-        if let Some(c) = claim() {
+        if let Some(c) = lend_helper(claim) {
             return c;
         }
         std::thread::sleep(std::time::Duration::from_millis(1));
@@ -34,7 +35,7 @@ fn solve_on(n: u32, coarse_grid: bool, helper: bool) -> (Vec<Vec3>, u32, f32, u3
         buffers.rhs.set(i, h * buffers.force[i]);
     }
     buffers.rhs.filter(&buffers.op.free);
-    let retry = helper && helper_runs && v.len() >= halves::MIN_PARTICLES;
+    let retry = helper && helper_runs && v.len() >= halves::MIN_PARTICLES && team::available();
     for _ in 0..1000 {
         buffers.reset_history();
         solve(&dynamics, &mut buffers);
@@ -57,7 +58,8 @@ fn the_helper_thread_changes_no_bit_of_the_solve() {
         let (alone, iterations, residual, threads) = solve_on(n, coarse_grid, false);
         assert_eq!(threads, 1);
         assert!(iterations > 10, "{iterations} iterations: too easy a test");
-        let (shared, iterations2, residual2, threads2) = solve_on(n, coarse_grid, true);
+        let (shared, iterations2, residual2, threads2) =
+            lend_helper(|| solve_on(n, coarse_grid, true));
         // The shared solve needs the gathered product, which the portable
         // code (`BEVY_CLOTH_SIMD=scalar`) does not have: one thread there.
         let shares = crate::simd::level() > crate::simd::Level::Scalar;
@@ -74,6 +76,39 @@ fn the_helper_thread_changes_no_bit_of_the_solve() {
                 "{i}"
             );
         }
+    }
+}
+
+/// What a build without threads does (`wasm32` in a browser; the host
+/// built with `--cfg bevy_cloth_no_threads`, as CI runs this test): the
+/// split solve, asked to share with the helper as by default, runs on the
+/// calling thread alone and spawns nothing, and gives the two-thread result.
+/// In a build with threads the single-thread solve is asked for instead.
+#[test]
+fn without_threads_the_split_solve_runs_here_with_the_two_thread_result() {
+    let (alone, iterations, residual, threads) = solve_on(50, true, !team::THREADS);
+    assert_eq!(threads, 1);
+    if !team::THREADS {
+        assert!(
+            claim().is_none(),
+            "a build without threads offered the helper"
+        );
+        let here = std::thread::current().id();
+        let (a, b) = team::both(
+            || std::thread::current().id(),
+            || std::thread::current().id(),
+        );
+        assert_eq!((a, b), (here, here));
+    }
+    let (shared, iterations2, residual2, threads2) = lend_helper(|| solve_on(50, true, true));
+    let shares = crate::simd::level() > crate::simd::Level::Scalar;
+    assert_eq!(threads2, if shares { 2 } else { 1 });
+    assert_eq!((iterations, residual), (iterations2, residual2));
+    for (i, (a, b)) in alone.iter().zip(&shared).enumerate() {
+        assert!(
+            (*a - *b).length() <= 1e-6 * b.length().max(1e-3),
+            "{i}: {a} vs {b}"
+        );
     }
 }
 
