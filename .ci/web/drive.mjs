@@ -25,10 +25,10 @@ function fail(message) {
   process.exit(1);
 }
 
-// Waits until a console line matches `pattern`, for at most `seconds`.
-async function waitFor(pattern, seconds, what) {
+// Waits until a console line from line `from` on matches `pattern`, for
+// at most `seconds`.
+async function waitFor(pattern, seconds, what, from = lines.length) {
   const until = Date.now() + seconds * 1000;
-  const from = lines.length;
   for (;;) {
     const hit = lines.slice(from).find((l) => pattern.test(l));
     if (hit) return hit;
@@ -90,13 +90,16 @@ try {
   if (!held) fail("the drag did not pick the cloth");
   console.log("the drag picked the cloth");
 
-  // 16² → 32² → 64² → 128²: three presses of N, then two reports.
+  // 16² → 32² → 64² → 128²: N held down across a frame or more (a frame
+  // takes about half a second under SwiftShader), each size seen in the log.
   await page.click("canvas");
-  for (let k = 0; k < 3; k++) {
-    await page.keyboard.press("KeyN");
-    await page.waitForTimeout(300);
+  for (const n of [32, 64, 128]) {
+    const mark = lines.length;
+    await page.keyboard.down("KeyN");
+    await page.waitForTimeout(1200);
+    await page.keyboard.up("KeyN");
+    await waitFor(new RegExp(`web: ${n}x${n} cloth`), 60, `${n}×${n} cloth`, mark);
   }
-  await waitFor(/web: 128x128 cloth/, 60, "128×128 cloth");
   const reports = [];
   for (let k = 0; k < 2; k++) {
     reports.push(await waitFor(/web: 16384 particles, step/, 120, "128×128 report"));

@@ -12,6 +12,10 @@ use super::table::Pieces;
 
 /// The Type 2 law's constants.
 #[derive(Clone, Copy, Debug)]
+#[cfg_attr(
+    not(any(test, target_arch = "x86_64")),
+    expect(dead_code, reason = "read by the x86-64 kernels alone")
+)]
 pub struct Law<'a> {
     /// The `g` table's pieces.
     pub pieces: &'a Pieces,

@@ -18,6 +18,10 @@ pub const LANES: usize = 16;
 
 /// One stream of blocks `C = t I + s u uᵀ` (kg), of the pairs `(p, p + δ)`.
 #[derive(Clone, Copy, Debug)]
+#[cfg_attr(
+    not(any(test, target_arch = "x86_64")),
+    expect(dead_code, reason = "read by the x86-64 kernels alone")
+)]
 pub struct Blocks<'a> {
     /// `δ`, the index step of the pairs (particles, ≤ the product's `pad`).
     pub delta: usize,
