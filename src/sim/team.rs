@@ -23,10 +23,10 @@
 //! next barrier and the panic is raised on the calling thread.
 //!
 //! A build without threads ([`THREADS`] is false: WebAssembly, as in a
-//! browser, or any target built with `--cfg bevy_cloth_no_threads`) never spawns the helper: [`claim`] is
-//! `None` and [`both`] runs its two halves one after the other on the
-//! calling thread. The single-thread solve sums in the same halves as the
-//! shared one, so both builds give the same bits.
+//! browser, or any target built with `--cfg bevy_cloth_no_threads`) never
+//! spawns the helper: [`claim`] is `None` and [`both`] runs its two halves
+//! one after the other on the calling thread. The single-thread solve sums
+//! in the same halves as the shared one, so both builds give the same bits.
 
 use std::panic::{AssertUnwindSafe, catch_unwind, resume_unwind};
 use std::sync::atomic::{AtomicBool, AtomicU32, AtomicU64, Ordering};
