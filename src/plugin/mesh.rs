@@ -20,7 +20,7 @@
 //!   (`overstep_fraction`), so a 144 Hz display does not show a 60 Hz cloth
 //!   stepping. The mesh is one fixed step behind the simulation, as with
 //!   any interpolation. The positions at the start of each step are kept in
-//!   [`ClothPrevious`].
+//!   a component of the plugin's own.
 //! - Only cloths that moved are written: a paused or resting cloth costs
 //!   nothing here. A cloth whose state is not finite keeps its last good
 //!   mesh, so a blow-up never reaches the renderer or picking.

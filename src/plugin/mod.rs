@@ -58,9 +58,7 @@ use crate::plugin::material::ClothMaterial;
 /// game pickable. Add it yourself (cloth meshes carry `Pickable` and
 /// `RayCastBackfaces`, so they are picked from both sides, also under
 /// `MeshPickingSettings::require_markers`). Without a mesh backend the
-/// plugin warns once at start-up, unless [`ClothPicking`]'s `enabled` is off.
-///
-/// [`ClothPicking`]: crate::plugin::picking::ClothPicking
+/// plugin warns once at start-up, unless `ClothPicking::enabled` is off.
 ///
 /// ```no_run
 /// # use bevy::prelude::*;

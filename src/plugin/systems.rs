@@ -143,8 +143,8 @@ pub(crate) struct StepQuery {
 
 /// Bevy's compute task pool as the [`Workers`] a step spreads its force
 /// bands over: what the plugin passes to every step, and what a headless
-/// caller of [`step_guarded`] can put in its
-/// [`StepBuffers::workers`](crate::sim::integrate::StepBuffers::workers).
+/// caller of [`step_guarded`] can give its buffers with
+/// [`StepBuffers::with_workers`](crate::sim::integrate::StepBuffers::with_workers).
 #[derive(Clone, Copy, Debug)]
 pub struct ComputePool(pub &'static ComputeTaskPool);
 

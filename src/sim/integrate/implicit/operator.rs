@@ -580,7 +580,7 @@ impl Operator {
         self.mass.iter().map(|&m| m as f64).sum()
     }
 
-    /// Whether the gathered product ([`simd::gather`]) alone is the
+    /// Whether the gathered product (`simd::gather`) alone is the
     /// product: every pair is in a stream.
     pub(super) fn streams_only(&self) -> bool {
         self.others.is_empty()

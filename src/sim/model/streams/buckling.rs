@@ -1,5 +1,5 @@
 //! The Type 2 (buckling) streams: lengths, the `g` table and forces in
-//! one AVX-512 pass where the CPU has it ([`simd::buckling`]), else in
+//! one AVX-512 pass where the CPU has it (`simd::buckling`), else in
 //! three portable loops.
 
 use super::{Soa, Stream, length_squared, pairs, window};
@@ -15,7 +15,7 @@ pub(super) struct Buckling<'a> {
 }
 
 /// A Type 2 stream's pair forces, as [`pairs`] writes them: in one
-/// AVX-512 pass where the CPU has it ([`simd::buckling`]), else in three
+/// AVX-512 pass where the CPU has it (`simd::buckling`), else in three
 /// passes with `g` and `len` as scratch of the stream's slots.
 #[inline(always)]
 pub(super) fn buckling_pairs(
