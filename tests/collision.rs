@@ -357,15 +357,12 @@ fn a_large_cloths_contacts_are_the_same_in_two_halves() {
     use bevy_cloth::sim::step::Substep;
     let pose = Isometry3d::from_translation(Vec3::new(0.0, 1.0, 0.0));
     let scene = ColliderScene {
-        colliders: vec![SceneCollider {
-            shape: ColliderShape::Analytic(Shape::Sphere { radius: 0.3 }),
-            start: pose,
-            end: pose,
-            min: Vec3::new(-0.3, 0.7, -0.3),
-            max: Vec3::new(0.3, 1.3, 0.3),
-            friction: 0.4,
-            restitution: 0.0,
-        }],
+        colliders: vec![SceneCollider::new(
+            Entity::PLACEHOLDER,
+            ColliderShape::Analytic(Shape::Sphere { radius: 0.3 }),
+            pose,
+            pose,
+        )],
     };
     let n = 64usize;
     assert!(n * n >= SPLIT_PARTICLES);

@@ -30,7 +30,7 @@
 //! }
 //! ```
 
-use bevy::app::{App, FixedUpdate};
+use bevy::app::App;
 use bevy::diagnostic::{
     Diagnostic, DiagnosticMeasurement, DiagnosticPath, Diagnostics, DiagnosticsStore,
     RegisterDiagnostic,
@@ -73,7 +73,10 @@ pub fn step_time_path(integrator: Integrator) -> &'static DiagnosticPath {
     &PER_INTEGRATOR[index]
 }
 
-pub(crate) fn configure(app: &mut App) {
+pub(crate) fn configure(
+    app: &mut App,
+    schedule: bevy::ecs::intern::Interned<dyn bevy::ecs::schedule::ScheduleLabel>,
+) {
     for path in [
         STEP_TIME,
         SUBSTEPS,
@@ -87,7 +90,7 @@ pub(crate) fn configure(app: &mut App) {
         app.register_diagnostic(Diagnostic::new(path).with_max_history_length(60));
     }
     app.add_systems(
-        FixedUpdate,
+        schedule,
         (record, record_named)
             .in_set(ClothSystems::Writeback)
             .after(crate::plugin::systems::finish_step),

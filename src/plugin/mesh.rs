@@ -371,7 +371,10 @@ pub(crate) fn sync_cloth_meshes(
 
 /// Orders the mesh sets in `PostUpdate` before the asset events, so bounds
 /// are recomputed in the same frame.
-pub(crate) fn configure(app: &mut bevy::app::App) {
+pub(crate) fn configure(
+    app: &mut bevy::app::App,
+    schedule: bevy::ecs::intern::Interned<dyn bevy::ecs::schedule::ScheduleLabel>,
+) {
     use bevy::app::PostUpdate;
     use bevy::ecs::query::With;
     use bevy::ecs::schedule::IntoScheduleConfigs;
@@ -379,7 +382,7 @@ pub(crate) fn configure(app: &mut bevy::app::App) {
     app.init_resource::<ClothMeshSettings>()
         .register_type::<ClothMeshSettings>()
         .add_systems(
-            bevy::app::FixedUpdate,
+            schedule,
             // Outside the cloth sets, so that it runs while they are paused
             // too: a paused cloth is still, not interpolated.
             remember_positions

@@ -36,8 +36,10 @@ pub mod tether;
 pub mod wind;
 
 use bevy::app::{App, FixedUpdate, Plugin};
-use bevy::ecs::schedule::IntoScheduleConfigs;
+use bevy::ecs::intern::Interned;
 use bevy::ecs::schedule::common_conditions::any_with_component;
+use bevy::ecs::schedule::{IntoScheduleConfigs, ScheduleLabel};
+use bevy::prelude::Resource;
 
 use crate::plugin::anchor::ClothAnchors;
 use crate::plugin::components::{
@@ -46,8 +48,22 @@ use crate::plugin::components::{
 use crate::plugin::material::ClothMaterial;
 
 /// Adds cloth simulation: the [`ClothDefaults`] resource, the
-/// [`ClothSystems`](schedule::ClothSystems) sets in `FixedUpdate` and the
-/// mesh sync in `PostUpdate`.
+/// [`ClothSystems`](schedule::ClothSystems) sets in `FixedUpdate` (or the
+/// schedule given to [`ClothPlugin::new`]) and the mesh sync in
+/// `PostUpdate`.
+///
+/// **Order with a physics engine.** avian's `PhysicsPlugins::default()` steps
+/// in `FixedPostUpdate`, after the cloth's `FixedUpdate`: each fixed step the
+/// cloth meets the bodies where avian left them, moving at their
+/// velocities, and the impulses it gives dynamic bodies enter avian's step
+/// that follows. Both run before `PostUpdate`'s transform propagation, so
+/// colliders read their pose from avian's `Position`/`Rotation` or, for the
+/// crate's own [`ClothCollider`](collision::ClothCollider)s, from
+/// `Transform`s as [`pose`] explains. Run the cloth in another fixed
+/// schedule (`ClothPlugin::new(FixedPostUpdate)`, ordered against
+/// `PhysicsSystems` there) only when avian itself runs elsewhere; the
+/// schedule must run inside the fixed main loop, as the step reads
+/// `Time<Fixed>`.
 ///
 /// Needs Bevy's time (`MinimalPlugins` or `DefaultPlugins`); anchors need
 /// `TransformPlugin`; meshes need `Assets<Mesh>` (asset and mesh plugins).
@@ -78,9 +94,25 @@ pub struct ClothPlugin {
     /// `MeshMaterial3d<StandardMaterial>` a double-sided default material.
     /// Turn off when your cloths use another material type.
     pub default_material: bool,
+    /// The schedule the step runs in: `FixedUpdate` by default.
+    pub schedule: Interned<dyn ScheduleLabel>,
 }
 
+/// The schedule [`ClothPlugin`] runs the step in, for bridges and games
+/// that add systems to its sets.
+#[derive(Resource, Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ClothSchedule(pub Interned<dyn ScheduleLabel>);
+
 impl ClothPlugin {
+    /// The plugin with the step in `schedule` (one of the fixed main
+    /// loop's: `FixedPreUpdate`, `FixedUpdate`, `FixedPostUpdate`).
+    pub fn new(schedule: impl ScheduleLabel) -> Self {
+        Self {
+            schedule: schedule.intern(),
+            ..Self::default()
+        }
+    }
+
     /// Sets [`default_material`](Self::default_material).
     pub fn with_default_material(mut self, on: bool) -> Self {
         self.default_material = on;
@@ -92,6 +124,7 @@ impl Default for ClothPlugin {
     fn default() -> Self {
         Self {
             default_material: true,
+            schedule: FixedUpdate.intern(),
         }
     }
 }
@@ -99,7 +132,9 @@ impl Default for ClothPlugin {
 impl Plugin for ClothPlugin {
     fn build(&self, app: &mut App) {
         use schedule::ClothSystems::*;
-        app.init_resource::<ClothDefaults>()
+        let fixed = self.schedule;
+        app.insert_resource(ClothSchedule(fixed))
+            .init_resource::<ClothDefaults>()
             .register_type::<ClothDefaults>()
             .register_type::<ClothSettings>()
             .register_type::<Cloth>()
@@ -126,13 +161,13 @@ impl Plugin for ClothPlugin {
             .init_resource::<schedule::ClothPause>()
             .register_type::<schedule::ClothPause>()
             .configure_sets(
-                FixedUpdate,
+                fixed,
                 (Prepare, Crease, Forces, Integrate, Collide, Writeback)
                     .chain()
                     .run_if(schedule::cloth_running),
             )
             .add_systems(
-                FixedUpdate,
+                fixed,
                 (
                     // A system with nothing to do is skipped by its run
                     // condition, which costs no hand-off to a pool thread.
@@ -170,9 +205,9 @@ impl Plugin for ClothPlugin {
             .register_type::<crease::ClothCreases>()
             .register_type::<tether::ClothTethers>()
             .register_type::<frame::ClothInertia>();
-        mesh::configure(app);
-        collision::configure(app);
-        diagnostics::configure(app);
+        mesh::configure(app, fixed);
+        collision::configure(app, fixed);
+        diagnostics::configure(app, fixed);
         #[cfg(feature = "picking")]
         picking::configure(app);
         #[cfg(feature = "render")]

@@ -9,7 +9,7 @@ use bevy::prelude::{
     Commands, Component, DetectChanges, Entity, Local, MessageWriter, Query, Ref, Res, ResMut, Time,
 };
 use bevy::tasks::ComputeTaskPool;
-use std::sync::Arc;
+use std::sync::{Arc, Mutex, PoisonError};
 
 use crate::sim::workers::{Pool, Workers};
 use bevy::time::Fixed;
@@ -24,8 +24,8 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use bevy::ecs::query::QueryData;
 
 use crate::plugin::collision::{
-    ClothCollision, ClothCollisionStats, ClothSelfCollision, ColliderScene, SceneContacts,
-    SelfCollisionScratch, bounds,
+    ClothCollision, ClothCollisionStats, ClothContactImpulses, ClothSelfCollision, ColliderScene,
+    ContactLayers, Feedback, SceneContacts, SelfCollisionScratch, bounds,
 };
 use crate::plugin::components::Cloth;
 use crate::plugin::components::{ClothForces, ClothStats};
@@ -116,6 +116,8 @@ pub(crate) struct ClothScratch {
     pub(crate) measured: Measured,
     /// The contact pass's masked inverse masses.
     pub(crate) masked: Vec<f32>,
+    /// The impulses this step gave colliders with feedback.
+    pub(crate) feedback: Feedback,
     /// Whether the cloth is at rest, and for how long it has been calm.
     pub(crate) rest: crate::plugin::events::RestTracker,
 }
@@ -134,6 +136,7 @@ pub(crate) struct StepQuery {
     scratch: &'static mut ClothScratch,
     stats: &'static mut ClothStats,
     collision: Option<&'static ClothCollision>,
+    layers: Option<&'static ContactLayers>,
     self_collision: Option<(
         &'static ClothSelfCollision,
         &'static mut SelfCollisionScratch,
@@ -192,6 +195,7 @@ pub(crate) fn step_cloths(
     defaults: Res<ClothDefaults>,
     scene: Res<ColliderScene>,
     mut stats: ResMut<ClothCollisionStats>,
+    mut impulses: ResMut<ClothContactImpulses>,
     mut cloths: Query<StepQuery>,
     ticks: SystemChangeTick,
     mut pool: Local<Pool>,
@@ -200,6 +204,7 @@ pub(crate) fn step_cloths(
     let now = ticks.this_run();
     let dt = time.timestep().as_secs_f32();
     let totals: [AtomicU64; 4] = Default::default();
+    let feedback = Mutex::new(Vec::new());
     cloths.par_iter_mut().for_each(|mut item| {
         let base = item.settings.map_or(&defaults.0, |own| &own.0);
         let material = item.material.copied().unwrap_or_default();
@@ -239,7 +244,12 @@ pub(crate) fn step_cloths(
                 .fold(0.0, f32::max);
             let reach = thickness + 2.0 * speed * dt + settings.gravity.length() * dt * dt + 0.01;
             let (lo, hi) = bounds(&item.particles.positions, reach);
-            scratch.near.extend(scene.overlapping(lo, hi));
+            let layers = item.layers.copied().unwrap_or_default();
+            scratch.near.extend(
+                scene
+                    .overlapping(lo, hi)
+                    .filter(|&c| scene.colliders[c].layers.interacts(layers)),
+            );
         }
         let self_collision = item
             .self_collision
@@ -265,6 +275,7 @@ pub(crate) fn step_cloths(
             self_collision,
             tethers,
             masked: &mut scratch.masked,
+            feedback: &mut scratch.feedback,
             counts: Default::default(),
         });
         let started = Instant::now();
@@ -292,6 +303,12 @@ pub(crate) fn step_cloths(
                 total.fetch_add(n as u64, Ordering::Relaxed);
             }
         }
+        if !scratch.feedback.impulses.is_empty() {
+            feedback
+                .lock()
+                .unwrap_or_else(PoisonError::into_inner)
+                .append(&mut scratch.feedback.impulses);
+        }
         scratch.measured.strain = step.strain.map(|s| (now, s));
         scratch.pending = step.report;
         let effective = step;
@@ -304,6 +321,17 @@ pub(crate) fn step_cloths(
             0
         };
     });
+    for (c, impulse) in feedback
+        .into_inner()
+        .unwrap_or_else(PoisonError::into_inner)
+    {
+        if let Some(collider) = scene.colliders.get(c) {
+            *impulses.map.entry(collider.entity).or_default() += impulse;
+        }
+    }
+    if !scene.colliders.is_empty() {
+        stats.collider_passes += 1;
+    }
     let [ct, cc, st, sc] = totals.map(AtomicU64::into_inner);
     if ct + st > 0 {
         stats.collider_tests += ct;

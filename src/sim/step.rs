@@ -4,7 +4,7 @@
 use bevy::math::Vec3;
 
 use crate::sim::connections::Connections;
-use crate::sim::integrate::implicit::{Hold, SolveContact};
+use crate::sim::integrate::implicit::{ContactBuffers, Hold, SolveContact};
 use crate::sim::integrate::{self, StepBuffers};
 use crate::sim::model::Dynamics;
 use crate::sim::particles::Particles;
@@ -54,6 +54,12 @@ pub trait ContactHook {
         _out: &mut Vec<SolveContact>,
     ) {
     }
+
+    /// After an implicit substep, before [`resolve`](Self::resolve): the
+    /// contacts its solve held, whose [`impulses`](ContactBuffers::impulses)
+    /// say what each gave its particle (N·s), with the particles'
+    /// positions (m) at the substep's end. Nothing by default.
+    fn solved(&mut self, _x: &[Vec3], _contacts: &ContactBuffers) {}
 }
 
 impl<F: FnMut(Substep, &[Vec3], &mut [Vec3], &mut [Vec3], &[f32])> ContactHook for F {
@@ -183,6 +189,9 @@ pub fn step_cloth_with(
             buffers,
         );
         if let Some(hook) = contacts.as_mut() {
+            if implicit && buffers.implicit.contacts.any() {
+                hook.solved(positions, &buffers.implicit.contacts);
+            }
             let held = if implicit {
                 buffers.implicit.contacts.holds()
             } else {

@@ -30,11 +30,15 @@
 //! Imports: the simulation core and the rest of the plugin (the schedule,
 //! poses, the components).
 
+mod contacts;
 mod from_mesh;
+mod scene;
 
 use std::sync::Arc;
 
-use bevy::ecs::schedule::common_conditions::{any_with_component, not};
+use bevy::ecs::intern::Interned;
+use bevy::ecs::schedule::ScheduleLabel;
+use bevy::ecs::schedule::common_conditions::any_with_component;
 use bevy::log::warn_once;
 use bevy::math::{Isometry3d, Vec3};
 use bevy::mesh::Mesh;
@@ -46,17 +50,16 @@ use crate::plugin::components::Cloth;
 use crate::plugin::components::ClothParticles;
 use crate::plugin::pose::WorldPose;
 use crate::plugin::schedule::ClothSystems;
-use crate::sim::collision::contact::{
-    Geometry, MovingCollider, collide_particles, seed_triangle_pass,
-};
-use crate::sim::collision::predict;
-use crate::sim::collision::self_collision::self_collide;
+use crate::sim::collision::contact::seed_triangle_pass;
 pub use crate::sim::collision::{Counts, SelfCollisionBuffers, Shape, TriMesh};
-use crate::sim::integrate::implicit::{Hold, SolveContact};
 use crate::sim::particles::Particles;
-use crate::sim::step::{ContactHook, Substep};
-use crate::sim::team::both;
-use crate::sim::tether::Tethers;
+
+pub(crate) use contacts::{Feedback, SceneContacts};
+pub use contacts::{SPLIT_PARTICLES, resolve_substep};
+pub use scene::{
+    ClothColliderSources, ClothContactImpulses, ColliderScene, ContactImpulse, ContactLayers,
+    ReportClothImpulses, SceneCollider,
+};
 
 /// A triangle mesh shared between colliders (opaque to reflection).
 #[derive(Clone, Debug, Reflect)]
@@ -159,13 +162,7 @@ impl ClothCollider {
     /// Checks dimensions (finite, positive), friction (finite, ≥ 0) and
     /// restitution (in [0, 1]).
     pub fn validate(&self) -> Result<(), ClothError> {
-        if let ColliderShape::Analytic(shape) = &self.shape
-            && !shape.is_valid()
-        {
-            return Err(ClothError::InvalidCollider(
-                "shape dimensions must be finite and positive",
-            ));
-        }
+        self.shape.validate()?;
         if !(self.friction.is_finite() && self.friction >= 0.0) {
             return Err(ClothError::InvalidCollider(
                 "friction must be finite and non-negative",
@@ -176,10 +173,23 @@ impl ClothCollider {
         }
         Ok(())
     }
+}
+
+impl ColliderShape {
+    /// Checks an analytic shape's dimensions (finite, positive); a mesh is
+    /// valid once built.
+    pub fn validate(&self) -> Result<(), ClothError> {
+        match self {
+            ColliderShape::Analytic(shape) if !shape.is_valid() => Err(
+                ClothError::InvalidCollider("shape dimensions must be finite and positive"),
+            ),
+            _ => Ok(()),
+        }
+    }
 
     /// Centre (local, m) and radius (m) of a ball holding the shape.
-    fn bounding_ball(&self) -> (Vec3, f32) {
-        match &self.shape {
+    pub fn bounding_ball(&self) -> (Vec3, f32) {
+        match self {
             ColliderShape::Analytic(shape) => (Vec3::ZERO, shape.bounding_radius()),
             ColliderShape::Mesh(mesh) => {
                 let (min, max) = mesh.0.bounds();
@@ -280,238 +290,28 @@ pub struct ClothCollisionStats {
     pub self_contacts: u64,
 }
 
-/// A collider over the current fixed step, owned so systems can share it.
-#[derive(Clone, Debug)]
-pub struct SceneCollider {
-    /// The collider's surface.
-    pub shape: ColliderShape,
-    /// Pose at the start of the step.
-    pub start: Isometry3d,
-    /// Pose at the end of the step.
-    pub end: Isometry3d,
-    /// World box swept by the collider over the step, m.
-    pub min: Vec3,
-    /// World box swept by the collider over the step, m.
-    pub max: Vec3,
-    /// Friction coefficient μ.
-    pub friction: f32,
-    /// Restitution e.
-    pub restitution: f32,
-}
-
-impl SceneCollider {
-    fn geometry(&self) -> Geometry<'_> {
-        match &self.shape {
-            ColliderShape::Analytic(shape) => Geometry::Shape(*shape),
-            ColliderShape::Mesh(mesh) => Geometry::Mesh(&mesh.0),
-        }
-    }
-
-    /// The collider between fractions `from` and `to` of the step, poses
-    /// interpolated (translation linearly, rotation by slerp).
-    pub fn between(&self, from: f32, to: f32) -> MovingCollider<'_> {
-        let at = |t: f32| {
-            Isometry3d::new(
-                Vec3::from(self.start.translation).lerp(Vec3::from(self.end.translation), t),
-                self.start.rotation.slerp(self.end.rotation, t),
-            )
-        };
-        MovingCollider {
-            geometry: self.geometry(),
-            start: at(from),
-            end: at(to),
-            friction: self.friction,
-            restitution: self.restitution,
-        }
-    }
-}
-
-/// The colliders of the current fixed step, gathered in `Prepare`.
-#[derive(Resource, Clone, Debug, Default)]
-pub struct ColliderScene {
-    /// Every valid collider with its poses over the step.
-    pub colliders: Vec<SceneCollider>,
-}
-
-impl ColliderScene {
-    /// Indices of the colliders whose swept box overlaps `[min, max]` (m).
-    pub fn overlapping(&self, min: Vec3, max: Vec3) -> impl Iterator<Item = usize> + '_ {
-        self.colliders
-            .iter()
-            .enumerate()
-            .filter(move |(_, c)| !(c.max.cmplt(min).any() || c.min.cmpgt(max).any()))
-            .map(|(i, _)| i)
-    }
-}
-
-/// Particles from which a cloth's contacts with each collider are resolved
-/// in two halves, one on the implicit solver's helper thread, when
-/// [`ImplicitParams::helper_thread`](crate::sim::settings::ImplicitParams::helper_thread)
-/// allows (the result is the same either way).
-pub const SPLIT_PARTICLES: usize = crate::sim::team::SPLIT_PARTICLES;
-
-/// Resolves the contacts of one substep of one cloth: against the scene's
-/// colliders listed in `near` (thickness `thickness` m), then with itself
-/// when `self_collision` is given; with `helper`, a cloth of
-/// [`SPLIT_PARTICLES`] or more shares the work with the helper thread. The
-/// ECS step calls this from the integrator's contact hook; it is a plain
-/// function so it can be tested and benched without an `App`.
-#[expect(
-    clippy::too_many_arguments,
-    reason = "a plain function over the cloth's slices"
-)]
-pub fn resolve_substep(
-    scene: &ColliderScene,
-    near: &[usize],
-    (thickness, helper): (f32, bool),
-    self_collision: Option<(&Cloth, f32, &mut SelfCollisionBuffers)>,
-    sub: Substep,
-    start: &[Vec3],
-    x: &mut [Vec3],
-    v: &mut [Vec3],
-    inverse_masses: &[f32],
-) -> (Counts, Counts) {
-    let mut against = Counts::default();
-    for &c in near {
-        let collider = scene.colliders[c].between(sub.from, sub.to);
-        let collide =
-            |start, x, v, w| collide_particles(&collider, start, x, v, w, thickness, sub.dt);
-        if !helper || x.len() < SPLIT_PARTICLES {
-            against += collide(start, x, v, inverse_masses);
-            continue;
-        }
-        // Each particle's contact is its own: half of them on the solver's
-        // helper thread, to the same result.
-        let mid = x.len() / 2;
-        let (x0, x1) = x.split_at_mut(mid);
-        let (v0, v1) = v.split_at_mut(mid);
-        let (s0, s1) = start.split_at(mid);
-        let (w0, w1) = inverse_masses.split_at(mid);
-        let (a, b) = both(|| collide(s0, x0, v0, w0), || collide(s1, x1, v1, w1));
-        against += a;
-        against += b;
-    }
-    let mut itself = Counts::default();
-    if let Some((cloth, self_thickness, buffers)) = self_collision {
-        itself = self_collide(cloth, start, x, v, inverse_masses, self_thickness, buffers);
-    }
-    (against, itself)
-}
-
-/// The contacts of one cloth's step with the scene and with itself, as the
-/// integrators' [`ContactHook`]: implicit steps hold the contacts
-/// [`predict`](predict::predict_contacts) lists inside their solve;
-/// [`resolve_substep`] resolves the rest after every substep, leaving the
-/// particles the solve held alone.
-pub(crate) struct SceneContacts<'a> {
-    /// The scene.
-    pub(crate) scene: &'a ColliderScene,
-    /// The scene's colliders near the cloth.
-    pub(crate) near: &'a [usize],
-    /// Contact thickness, m.
-    pub(crate) thickness: f32,
-    /// Whether a large cloth may share the work with the helper thread.
-    pub(crate) helper: bool,
-    /// The cloth, its self-collision thickness (m) and buffers, when it
-    /// collides with itself.
-    pub(crate) self_collision: Option<(&'a Cloth, f32, &'a mut SelfCollisionBuffers)>,
-    /// Whether the implicit solve holds contacts
-    /// ([`ClothCollision::in_solve`]).
-    pub(crate) in_solve: bool,
-    /// The cloth's tethers and their slack, applied before the contacts
-    /// ([`ClothTethers`](crate::plugin::tether::ClothTethers)).
-    pub(crate) tethers: Option<(&'a Tethers, f32)>,
-    /// Scratch: the inverse masses with the held particles' zeroed.
-    pub(crate) masked: &'a mut Vec<f32>,
-    /// Tests and contacts so far: against colliders, with itself.
-    pub(crate) counts: (Counts, Counts),
-}
-
-impl ContactHook for SceneContacts<'_> {
-    fn resolve(
-        &mut self,
-        sub: Substep,
-        start: &[Vec3],
-        x: &mut [Vec3],
-        v: &mut [Vec3],
-        w: &[f32],
-        held: &[Hold],
-    ) {
-        let w = if held.len() == w.len() {
-            self.masked.clear();
-            self.masked.extend(
-                w.iter()
-                    .zip(held)
-                    .map(|(&w, &h)| if h == Hold::Free { w } else { 0.0 }),
-            );
-            &self.masked[..]
-        } else {
-            w
-        };
-        if let Some((tethers, slack)) = self.tethers {
-            tethers.apply(x, v, w, slack);
-        }
-        let own = self
-            .self_collision
-            .as_mut()
-            .map(|(c, t, b)| (*c, *t, &mut **b));
-        let (mut against, itself) = resolve_substep(
-            self.scene,
-            self.near,
-            (self.thickness, self.helper),
-            own,
-            sub,
-            start,
-            x,
-            v,
-            w,
-        );
-        if held.len() == x.len() {
-            for &c in self.near {
-                let collider = self.scene.colliders[c].between(sub.from, sub.to);
-                against.contacts +=
-                    predict::push_out_held(&collider, held, (start, x, v), self.thickness, sub.dt);
-            }
-        }
-        self.counts.0 += against;
-        self.counts.1 += itself;
-    }
-
-    fn predict(
-        &mut self,
-        sub: Substep,
-        x: &[Vec3],
-        v: &[Vec3],
-        w: &[f32],
-        out: &mut Vec<SolveContact>,
-    ) {
-        if !self.in_solve {
-            return;
-        }
-        for &c in self.near {
-            let collider = self.scene.colliders[c].between(sub.from, sub.to);
-            predict::predict_contacts(&collider, (x, v, w), self.thickness, sub.dt, out);
-        }
-        predict::keep_nearest(out);
-    }
-}
-
 /// Adds the collision resources and systems (called by `ClothPlugin`).
-pub(crate) fn configure(app: &mut App) {
+pub(crate) fn configure(app: &mut App, schedule: Interned<dyn ScheduleLabel>) {
     app.init_resource::<ClothCollisionStats>()
         .init_resource::<ColliderScene>()
+        .init_resource::<ClothContactImpulses>()
         .register_type::<ClothCollider>()
         .register_type::<ClothCollision>()
         .register_type::<ClothSelfCollision>()
         .register_type::<ClothCollisionStats>()
+        .register_type::<ContactLayers>()
+        .register_type::<ReportClothImpulses>()
+        .configure_sets(schedule, ClothColliderSources.in_set(ClothSystems::Prepare))
         .add_systems(
-            FixedUpdate,
+            schedule,
             (
-                (
-                    gather_colliders.run_if(any_with_component::<ClothCollider>),
-                    clear_colliders.run_if(not(any_with_component::<ClothCollider>)),
-                )
-                    .in_set(ClothSystems::Prepare),
+                clear_scene
+                    .run_if(scene_in_use)
+                    .in_set(ClothSystems::Prepare)
+                    .before(ClothColliderSources),
+                gather_colliders
+                    .run_if(any_with_component::<ClothCollider>)
+                    .in_set(ClothColliderSources),
                 seed_pass
                     .in_set(ClothSystems::Collide)
                     .run_if(mesh_in_scene),
@@ -519,17 +319,21 @@ pub(crate) fn configure(app: &mut App) {
         );
 }
 
-/// [`ClothSystems::Prepare`]: every valid
+/// The [`ClothCollider`] source, in [`ClothColliderSources`]: every valid
 /// collider's poses over the coming step; its end pose is its next start.
 fn gather_colliders(
     _main: crate::plugin::schedule::MainThread,
-    mut colliders: Query<(&ClothCollider, WorldPose, &mut ColliderMotion)>,
+    mut colliders: Query<(
+        Entity,
+        &ClothCollider,
+        WorldPose,
+        &mut ColliderMotion,
+        Option<&ContactLayers>,
+        Has<ReportClothImpulses>,
+    )>,
     mut scene: ResMut<ColliderScene>,
-    mut stats: ResMut<ClothCollisionStats>,
 ) {
-    stats.collider_passes += 1;
-    scene.colliders.clear();
-    for (collider, pose, mut motion) in &mut colliders {
+    for (entity, collider, pose, mut motion, layers, feedback) in &mut colliders {
         if let Err(error) = collider.validate() {
             warn_once!("a cloth collider is ignored: {error}");
             continue;
@@ -538,28 +342,33 @@ fn gather_colliders(
             continue;
         };
         let start = motion.previous.replace(end).unwrap_or(end);
-        let (centre, radius) = collider.bounding_ball();
-        let (c0, c1) = (
-            Vec3::from(start.transform_point(centre)),
-            Vec3::from(end.transform_point(centre)),
+        let pushed = scene.push(
+            SceneCollider::new(entity, collider.shape.clone(), start, end)
+                .with_friction(collider.friction)
+                .with_restitution(collider.restitution)
+                .with_layers(layers.copied().unwrap_or_default())
+                .with_feedback(feedback),
         );
-        scene.colliders.push(SceneCollider {
-            shape: collider.shape.clone(),
-            start,
-            end,
-            min: c0.min(c1) - radius,
-            max: c0.max(c1) + radius,
-            friction: collider.friction,
-            restitution: collider.restitution,
-        });
+        if let Err(error) = pushed {
+            warn_once!("a cloth collider is ignored: {error}");
+        }
     }
 }
 
-/// Empties the scene once the last collider is gone.
-fn clear_colliders(_main: crate::plugin::schedule::MainThread, mut scene: ResMut<ColliderScene>) {
-    if !scene.colliders.is_empty() {
-        scene.colliders.clear();
-    }
+/// Run condition of [`clear_scene`]: there is something to clear.
+fn scene_in_use(scene: Res<ColliderScene>, impulses: Res<ClothContactImpulses>) -> bool {
+    !scene.colliders.is_empty() || !impulses.is_empty()
+}
+
+/// Empties the scene, and the last step's impulses, before the sources
+/// run.
+fn clear_scene(
+    _main: crate::plugin::schedule::MainThread,
+    mut scene: ResMut<ColliderScene>,
+    mut impulses: ResMut<ClothContactImpulses>,
+) {
+    scene.colliders.clear();
+    impulses.map.clear();
 }
 
 /// Run condition of [`seed_pass`]: the scene has a mesh collider (only
@@ -577,7 +386,12 @@ fn seed_pass(
     _main: crate::plugin::schedule::MainThread,
     time: Res<Time<Fixed>>,
     scene: Res<ColliderScene>,
-    mut cloths: Query<(&Cloth, &mut ClothParticles, Option<&ClothCollision>)>,
+    mut cloths: Query<(
+        &Cloth,
+        &mut ClothParticles,
+        Option<&ClothCollision>,
+        Option<&ContactLayers>,
+    )>,
     mut stats: ResMut<ClothCollisionStats>,
 ) {
     // Only mesh colliders take part: with none in the scene, no work.
@@ -590,7 +404,8 @@ fn seed_pass(
     }
     let dt = time.timestep().as_secs_f32();
     let mut counts = Counts::default();
-    for (cloth, mut particles, settings) in &mut cloths {
+    for (cloth, mut particles, settings, layers) in &mut cloths {
+        let layers = layers.copied().unwrap_or_default();
         let thickness = settings.map_or(ClothCollision::default().thickness, |s| s.thickness);
         if particles.len() != cloth.len() || !(thickness.is_finite() && thickness >= 0.0) {
             continue;
@@ -604,6 +419,9 @@ fn seed_pass(
         } = &mut particles.0;
         for c in scene.overlapping(lo, hi) {
             let collider = &scene.colliders[c];
+            if !collider.layers.interacts(layers) {
+                continue;
+            }
             if let ColliderShape::Mesh(mesh) = &collider.shape {
                 let moving = collider.between(0.0, 1.0);
                 counts += seed_triangle_pass(
@@ -613,7 +431,7 @@ fn seed_pass(
                     positions,
                     velocities,
                     inverse_masses,
-                    thickness,
+                    thickness + collider.margin,
                     dt,
                 );
             }

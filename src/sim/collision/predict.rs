@@ -56,6 +56,7 @@ pub fn predict_contacts(
                 gap,
                 velocity,
                 friction: collider.friction,
+                source: 0,
             });
         }
     }
@@ -211,6 +212,7 @@ mod tests {
             gap,
             velocity: Vec3::ZERO,
             friction: 0.0,
+            source: 0,
         };
         let mut list = vec![c(3, 0.0), c(1, 0.2), c(3, -0.1), c(1, 0.1)];
         keep_nearest(&mut list);

@@ -47,6 +47,10 @@ pub struct SolveContact {
     pub velocity: Vec3,
     /// Coulomb friction coefficient (dimensionless).
     pub friction: f32,
+    /// The collider the contact is with, numbered as the caller numbers
+    /// them: the solve does not read it, and hands it back with the
+    /// contact's impulse ([`ContactBuffers::impulses`]).
+    pub source: u32,
 }
 
 /// How the solve held a particle in the last step.
@@ -112,6 +116,9 @@ pub struct ContactBuffers {
     held: Vec<Held>,
     /// `α`, `β` of this step's solve.
     factors: (f32, f32),
+    /// The impulse (N·s) each held contact gave its particle in the last
+    /// solve, with the contact's index in `list`.
+    impulses: Vec<(u32, Vec3)>,
 }
 
 impl ContactBuffers {
@@ -130,8 +137,19 @@ impl ContactBuffers {
         if self.any { &self.hold } else { &[] }
     }
 
+    /// The impulse (N·s) each contact of [`list`](Self::list) held in the
+    /// last solve gave its particle: the normal spring's and the friction's,
+    /// over the step (a pulling spring's too, so that momentum adds up). The
+    /// collider feels the opposite.
+    pub fn impulses(&self) -> impl Iterator<Item = (&SolveContact, Vec3)> + '_ {
+        self.impulses
+            .iter()
+            .filter_map(|&(i, j)| self.list.get(i as usize).map(|c| (c, j)))
+    }
+
     /// Forgets every hold (a reset, a teleport).
     pub fn clear(&mut self) {
+        self.impulses.clear();
         self.hold.clear();
         self.load.clear();
         self.any = false;
@@ -153,6 +171,7 @@ impl ContactBuffers {
     ) -> bool {
         let n = inverse_masses.len();
         self.held.clear();
+        self.impulses.clear();
         self.factors = (alpha, beta);
         if self.list.is_empty() {
             self.clear();
@@ -250,6 +269,7 @@ impl ContactBuffers {
         dv: impl Fn(usize) -> Vec3,
         (gamma, h): (f32, f32),
     ) {
+        let alpha = self.factors.0;
         for held in &self.held {
             let c = self.list[held.index];
             let p = c.particle as usize;
@@ -257,14 +277,24 @@ impl ContactBuffers {
             let force = held.k * (-c.gap - reach);
             let relative = v[p] - c.velocity;
             let mut along = relative - relative.dot(c.normal) * c.normal;
+            // The spring's impulse `α λ n` and the friction's: the damping's
+            // on the final sliding velocity, or Coulomb's.
+            let mut impulse = alpha * force * c.normal;
+            match held.friction {
+                Friction::Hold(damping) => impulse -= alpha * damping * along,
+                Friction::Slide(kinetic) => impulse -= kinetic,
+            }
             if let Friction::Slide(kinetic) = held.friction
                 && along.dot(kinetic) < 0.0
             {
-                // Friction took out more than the motion: it stops.
+                // Friction took out more than the motion: it stops (the
+                // particle's mass is `k γ² / κ`).
+                impulse -= held.k * gamma * gamma / KAPPA * along;
                 v[p] -= along;
                 x[p] -= gamma * along;
                 along = Vec3::ZERO;
             }
+            self.impulses.push((held.index as u32, impulse));
             if force <= 0.0 {
                 // The spring held the particle back: it was leaving.
                 continue;

@@ -41,6 +41,7 @@ fn on_floor(y: f32, push: Vec3, mu: f32, steps: usize) -> (Vec3, Vec3, Hold) {
                 gap,
                 velocity: Vec3::ZERO,
                 friction: mu,
+                source: 0,
             });
         }
         backward_euler(&dynamics, &mut x, &mut v, H, &mut buffers);
@@ -78,6 +79,7 @@ fn a_falling_particle_lands_on_the_floor_in_one_step() {
         gap: 0.01,
         velocity: Vec3::ZERO,
         friction: 0.0,
+        source: 0,
     });
     backward_euler(&dynamics, &mut x, &mut v, H, &mut buffers);
     // It ends on the surface (to within 1/(1 + κ) of the 5 cm it would

@@ -1,0 +1,274 @@
+//! A cloth's contacts with the [`ColliderScene`] during its step: the
+//! integrators' [`ContactHook`], and the impulses it measures for colliders
+//! with [`feedback`](SceneCollider::feedback).
+
+use bevy::math::Vec3;
+
+use crate::plugin::collision::scene::{ColliderScene, ContactImpulse, SceneCollider};
+use crate::plugin::components::Cloth;
+use crate::sim::collision::contact::collide_particles;
+use crate::sim::collision::predict;
+use crate::sim::collision::self_collision::self_collide;
+use crate::sim::collision::{Counts, SelfCollisionBuffers};
+use crate::sim::integrate::implicit::{ContactBuffers, Hold, SolveContact};
+use crate::sim::step::{ContactHook, Substep};
+use crate::sim::team::both;
+use crate::sim::tether::Tethers;
+
+/// Particles from which a cloth's contacts with each collider are resolved
+/// in two halves, one on the implicit solver's helper thread, when
+/// [`ImplicitParams::helper_thread`](crate::sim::settings::ImplicitParams::helper_thread)
+/// allows (the result is the same either way).
+pub const SPLIT_PARTICLES: usize = crate::sim::team::SPLIT_PARTICLES;
+
+/// Resolves the contacts of the particles with one collider over a
+/// substep, at the cloth's contact `thickness` (m) plus the collider's
+/// margin; with `helper`, a cloth of [`SPLIT_PARTICLES`] or more shares the
+/// work with the helper thread.
+fn collide_one(
+    collider: &SceneCollider,
+    sub: Substep,
+    (thickness, helper): (f32, bool),
+    start: &[Vec3],
+    x: &mut [Vec3],
+    v: &mut [Vec3],
+    inverse_masses: &[f32],
+) -> Counts {
+    let moving = collider.between(sub.from, sub.to);
+    let thickness = thickness + collider.margin;
+    let collide = |start, x, v, w| collide_particles(&moving, start, x, v, w, thickness, sub.dt);
+    if !helper || x.len() < SPLIT_PARTICLES {
+        return collide(start, x, v, inverse_masses);
+    }
+    // Each particle's contact is its own: half of them on the solver's
+    // helper thread, to the same result.
+    let mid = x.len() / 2;
+    let (x0, x1) = x.split_at_mut(mid);
+    let (v0, v1) = v.split_at_mut(mid);
+    let (s0, s1) = start.split_at(mid);
+    let (w0, w1) = inverse_masses.split_at(mid);
+    let (mut a, b) = both(|| collide(s0, x0, v0, w0), || collide(s1, x1, v1, w1));
+    a += b;
+    a
+}
+
+/// Resolves the contacts of one substep of one cloth: against the scene's
+/// colliders listed in `near` (thickness `thickness` m), then with itself
+/// when `self_collision` is given; with `helper`, a cloth of
+/// [`SPLIT_PARTICLES`] or more shares the work with the helper thread. The
+/// ECS step calls this from the integrator's contact hook; it is a plain
+/// function so it can be tested and benched without an `App`.
+#[expect(
+    clippy::too_many_arguments,
+    reason = "a plain function over the cloth's slices"
+)]
+pub fn resolve_substep(
+    scene: &ColliderScene,
+    near: &[usize],
+    (thickness, helper): (f32, bool),
+    self_collision: Option<(&Cloth, f32, &mut SelfCollisionBuffers)>,
+    sub: Substep,
+    start: &[Vec3],
+    x: &mut [Vec3],
+    v: &mut [Vec3],
+    inverse_masses: &[f32],
+) -> (Counts, Counts) {
+    let mut against = Counts::default();
+    for &c in near {
+        let collider = &scene.colliders[c];
+        against += collide_one(
+            collider,
+            sub,
+            (thickness, helper),
+            start,
+            x,
+            v,
+            inverse_masses,
+        );
+    }
+    let mut itself = Counts::default();
+    if let Some((cloth, self_thickness, buffers)) = self_collision {
+        itself = self_collide(cloth, start, x, v, inverse_masses, self_thickness, buffers);
+    }
+    (against, itself)
+}
+
+/// The impulses a cloth's step gave the colliders with feedback, by scene
+/// index (a handful: a linear list).
+#[derive(Clone, Debug, Default)]
+pub(crate) struct Feedback {
+    /// Scene index and impulse on that collider.
+    pub(crate) impulses: Vec<(usize, ContactImpulse)>,
+    /// Scratch: the velocities before a collider's response, m/s.
+    before: Vec<Vec3>,
+}
+
+impl Feedback {
+    fn entry(&mut self, c: usize) -> &mut ContactImpulse {
+        match self.impulses.iter().position(|(i, _)| *i == c) {
+            Some(k) => &mut self.impulses[k].1,
+            None => {
+                self.impulses.push((c, ContactImpulse::default()));
+                &mut self.impulses.last_mut().expect("just pushed").1
+            }
+        }
+    }
+
+    /// Before a response that may change `v`: remembers it.
+    fn mark(&mut self, v: &[Vec3]) {
+        self.before.clear();
+        self.before.extend_from_slice(v);
+    }
+
+    /// After it: the momentum it gave the particles (masses from the
+    /// inverse masses `w`, 1/kg), at their positions `x` (m), goes to
+    /// collider `c` with the opposite sign.
+    fn measure(&mut self, c: usize, x: &[Vec3], v: &[Vec3], w: &[f32]) {
+        let mut total = ContactImpulse::default();
+        for (((&before, &after), &p), &w) in self.before.iter().zip(v).zip(x).zip(w) {
+            if after != before && w > 0.0 {
+                total.add_at(-(after - before) / w, p);
+            }
+        }
+        if total != ContactImpulse::default() {
+            *self.entry(c) += total;
+        }
+    }
+}
+
+/// The contacts of one cloth's step with the scene and with itself, as the
+/// integrators' [`ContactHook`]: implicit steps hold the contacts
+/// [`predict`](predict::predict_contacts) lists inside their solve;
+/// [`resolve_substep`] resolves the rest after every substep, leaving the
+/// particles the solve held alone. The impulses on colliders with feedback
+/// are measured on the way.
+pub(crate) struct SceneContacts<'a> {
+    /// The scene.
+    pub(crate) scene: &'a ColliderScene,
+    /// The scene's colliders near the cloth.
+    pub(crate) near: &'a [usize],
+    /// Contact thickness, m.
+    pub(crate) thickness: f32,
+    /// Whether a large cloth may share the work with the helper thread.
+    pub(crate) helper: bool,
+    /// The cloth, its self-collision thickness (m) and buffers, when it
+    /// collides with itself.
+    pub(crate) self_collision: Option<(&'a Cloth, f32, &'a mut SelfCollisionBuffers)>,
+    /// Whether the implicit solve holds contacts
+    /// ([`ClothCollision::in_solve`](super::ClothCollision::in_solve)).
+    pub(crate) in_solve: bool,
+    /// The cloth's tethers and their slack, applied before the contacts
+    /// ([`ClothTethers`](crate::plugin::tether::ClothTethers)).
+    pub(crate) tethers: Option<(&'a Tethers, f32)>,
+    /// Scratch: the inverse masses with the held particles' zeroed.
+    pub(crate) masked: &'a mut Vec<f32>,
+    /// The impulses on colliders with feedback.
+    pub(crate) feedback: &'a mut Feedback,
+    /// Tests and contacts so far: against colliders, with itself.
+    pub(crate) counts: (Counts, Counts),
+}
+
+impl ContactHook for SceneContacts<'_> {
+    fn resolve(
+        &mut self,
+        sub: Substep,
+        start: &[Vec3],
+        x: &mut [Vec3],
+        v: &mut [Vec3],
+        w: &[f32],
+        held: &[Hold],
+    ) {
+        let all = w;
+        let w = if held.len() == w.len() {
+            self.masked.clear();
+            self.masked.extend(
+                w.iter()
+                    .zip(held)
+                    .map(|(&w, &h)| if h == Hold::Free { w } else { 0.0 }),
+            );
+            &self.masked[..]
+        } else {
+            w
+        };
+        if let Some((tethers, slack)) = self.tethers {
+            tethers.apply(x, v, w, slack);
+        }
+        let mut against = Counts::default();
+        for &c in self.near {
+            let collider = &self.scene.colliders[c];
+            if collider.feedback {
+                self.feedback.mark(v);
+            }
+            against += collide_one(collider, sub, (self.thickness, self.helper), start, x, v, w);
+            if collider.feedback {
+                self.feedback.measure(c, x, v, all);
+            }
+        }
+        let mut itself = Counts::default();
+        if let Some((cloth, thickness, buffers)) = self.self_collision.as_mut() {
+            itself = self_collide(*cloth, start, x, v, w, *thickness, buffers);
+        }
+        if held.len() == x.len() {
+            for &c in self.near {
+                let collider = &self.scene.colliders[c];
+                if collider.feedback {
+                    self.feedback.mark(v);
+                }
+                let moving = collider.between(sub.from, sub.to);
+                against.contacts += predict::push_out_held(
+                    &moving,
+                    held,
+                    (start, x, v),
+                    self.thickness + collider.margin,
+                    sub.dt,
+                );
+                if collider.feedback {
+                    self.feedback.measure(c, x, v, all);
+                }
+            }
+        }
+        self.counts.0 += against;
+        self.counts.1 += itself;
+    }
+
+    fn predict(
+        &mut self,
+        sub: Substep,
+        x: &[Vec3],
+        v: &[Vec3],
+        w: &[f32],
+        out: &mut Vec<SolveContact>,
+    ) {
+        if !self.in_solve {
+            return;
+        }
+        for &c in self.near {
+            let collider = &self.scene.colliders[c];
+            let moving = collider.between(sub.from, sub.to);
+            let from = out.len();
+            predict::predict_contacts(
+                &moving,
+                (x, v, w),
+                self.thickness + collider.margin,
+                sub.dt,
+                out,
+            );
+            for contact in &mut out[from..] {
+                contact.source = c as u32;
+            }
+        }
+        predict::keep_nearest(out);
+    }
+
+    fn solved(&mut self, x: &[Vec3], contacts: &ContactBuffers) {
+        for (contact, impulse) in contacts.impulses() {
+            let c = contact.source as usize;
+            let p = contact.particle as usize;
+            if let (Some(collider), Some(&at)) = (self.scene.colliders.get(c), x.get(p))
+                && collider.feedback
+            {
+                self.feedback.entry(c).add_at(-impulse, at);
+            }
+        }
+    }
+}

@@ -1,0 +1,331 @@
+//! The collider pipeline: the [`ColliderScene`] every source feeds in
+//! [`ClothColliderSources`], and the [`ClothContactImpulses`] the step
+//! reports back for bridges to apply.
+
+use bevy::ecs::schedule::SystemSet;
+use bevy::math::{Isometry3d, Vec3};
+use bevy::platform::collections::HashMap;
+use bevy::prelude::*;
+
+use crate::error::ClothError;
+use crate::plugin::collision::{ColliderShape, MeshShape};
+use crate::sim::collision::contact::{Geometry, MovingCollider};
+
+/// The system set, in [`ClothSystems::Prepare`](crate::plugin::schedule::ClothSystems::Prepare),
+/// in which collider sources push this step's colliders into the
+/// [`ColliderScene`]: the crate's own [`ClothCollider`](super::ClothCollider)s,
+/// the avian and rapier bridges, and any of a game's own. The scene is
+/// emptied just before the set runs.
+///
+/// ```
+/// # use bevy::prelude::*;
+/// # use bevy::math::Isometry3d;
+/// # use bevy_cloth::prelude::*;
+/// # use bevy_cloth::plugin::collision::{ClothColliderSources, ColliderScene, ColliderShape, SceneCollider, Shape};
+/// /// A game's own obstacle: a ball that follows a scripted path.
+/// #[derive(Component)]
+/// struct Boulder { radius: f32, now: Vec3, next: Vec3 }
+///
+/// fn boulders(boulders: Query<(Entity, &Boulder)>, mut scene: ResMut<ColliderScene>) {
+///     for (entity, b) in &boulders {
+///         let shape = ColliderShape::Analytic(Shape::Sphere { radius: b.radius });
+///         let (start, end) = (Isometry3d::from_translation(b.now), Isometry3d::from_translation(b.next));
+///         if let Err(error) = scene.push(SceneCollider::new(entity, shape, start, end)) {
+///             warn_once!("a boulder is ignored: {error}");
+///         }
+///     }
+/// }
+///
+/// # let mut app = App::new();
+/// app.add_systems(FixedUpdate, boulders.in_set(ClothColliderSources));
+/// ```
+#[derive(SystemSet, Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct ClothColliderSources;
+
+/// Which colliders a cloth meets, as 32 layer bits: a cloth and a collider
+/// meet when each one's `memberships` share a bit with the other's
+/// `filters` (avian's rule). On a cloth it sets the cloth's layers; on an
+/// entity with a [`ClothCollider`](super::ClothCollider), the collider's.
+/// Without it, an entity is in every layer and meets every layer.
+#[derive(Component, Clone, Copy, Debug, PartialEq, Eq, Hash, Reflect)]
+#[reflect(Component, Default, Debug)]
+pub struct ContactLayers {
+    /// The layers it is in.
+    pub memberships: u32,
+    /// The layers it meets.
+    pub filters: u32,
+}
+
+impl ContactLayers {
+    /// In every layer, meeting every layer.
+    pub const ALL: Self = Self {
+        memberships: u32::MAX,
+        filters: u32::MAX,
+    };
+
+    /// In `memberships`, meeting `filters`.
+    pub const fn new(memberships: u32, filters: u32) -> Self {
+        Self {
+            memberships,
+            filters,
+        }
+    }
+
+    /// Whether the two meet.
+    pub const fn interacts(self, other: Self) -> bool {
+        self.memberships & other.filters != 0 && other.memberships & self.filters != 0
+    }
+}
+
+impl Default for ContactLayers {
+    fn default() -> Self {
+        Self::ALL
+    }
+}
+
+/// A collider over the current fixed step, as a source hands it to the
+/// [`ColliderScene`].
+#[derive(Clone, Debug)]
+#[non_exhaustive]
+pub struct SceneCollider {
+    /// The entity it came from, to which [`ClothContactImpulses`] are
+    /// reported.
+    pub entity: Entity,
+    /// The collider's surface, in its own frame.
+    pub shape: ColliderShape,
+    /// Pose at the start of the step (world).
+    pub start: Isometry3d,
+    /// Pose at the end of the step (world).
+    pub end: Isometry3d,
+    /// World box swept by the collider over the step, m.
+    pub min: Vec3,
+    /// World box swept by the collider over the step, m.
+    pub max: Vec3,
+    /// Friction coefficient μ (≥ 0, dimensionless).
+    pub friction: f32,
+    /// Restitution e (0 … 1).
+    pub restitution: f32,
+    /// A rounding radius around the shape (m, ≥ 0), added to the cloth's
+    /// contact thickness: a rounded box, a sphere-swept mesh.
+    pub margin: f32,
+    /// The collider's layers.
+    pub layers: ContactLayers,
+    /// Whether the step measures the impulses the cloth gives it
+    /// ([`ClothContactImpulses`]): on for bodies that feel the cloth.
+    pub feedback: bool,
+}
+
+impl SceneCollider {
+    /// A collider of `shape` from `entity`, at pose `start` at the start of
+    /// the step and `end` at its end; friction 0.4, no restitution, no
+    /// margin, every layer, no feedback.
+    pub fn new(entity: Entity, shape: ColliderShape, start: Isometry3d, end: Isometry3d) -> Self {
+        let mut collider = Self {
+            entity,
+            shape,
+            start,
+            end,
+            min: Vec3::ZERO,
+            max: Vec3::ZERO,
+            friction: 0.4,
+            restitution: 0.0,
+            margin: 0.0,
+            layers: ContactLayers::ALL,
+            feedback: false,
+        };
+        collider.update_bounds();
+        collider
+    }
+
+    /// With friction μ.
+    pub fn with_friction(mut self, friction: f32) -> Self {
+        self.friction = friction;
+        self
+    }
+
+    /// With restitution e.
+    pub fn with_restitution(mut self, restitution: f32) -> Self {
+        self.restitution = restitution;
+        self
+    }
+
+    /// With a rounding radius of `margin` m.
+    pub fn with_margin(mut self, margin: f32) -> Self {
+        self.margin = margin;
+        self.update_bounds();
+        self
+    }
+
+    /// In `layers`.
+    pub fn with_layers(mut self, layers: ContactLayers) -> Self {
+        self.layers = layers;
+        self
+    }
+
+    /// With the cloth's impulses on it measured and reported.
+    pub fn with_feedback(mut self, feedback: bool) -> Self {
+        self.feedback = feedback;
+        self
+    }
+
+    /// Recomputes [`min`](Self::min)/[`max`](Self::max) from the shape,
+    /// margin and poses.
+    pub fn update_bounds(&mut self) {
+        let (centre, radius) = self.shape.bounding_ball();
+        let radius = radius + self.margin.max(0.0);
+        let (c0, c1) = (
+            Vec3::from(self.start.transform_point(centre)),
+            Vec3::from(self.end.transform_point(centre)),
+        );
+        self.min = c0.min(c1) - radius;
+        self.max = c0.max(c1) + radius;
+    }
+
+    /// Checks the shape (finite, positive dimensions; a mesh with
+    /// triangles), the poses (finite), friction (finite, ≥ 0), restitution
+    /// (in [0, 1]) and margin (finite, ≥ 0).
+    pub fn validate(&self) -> Result<(), ClothError> {
+        self.shape.validate()?;
+        let finite = |p: &Isometry3d| {
+            Vec3::from(p.translation).is_finite()
+                && p.rotation.is_finite()
+                && p.rotation.length() > 0.5
+        };
+        if !(finite(&self.start) && finite(&self.end)) {
+            return Err(ClothError::InvalidCollider("pose must be finite"));
+        }
+        if !(self.friction.is_finite() && self.friction >= 0.0) {
+            return Err(ClothError::InvalidCollider(
+                "friction must be finite and non-negative",
+            ));
+        }
+        if !(0.0..=1.0).contains(&self.restitution) {
+            return Err(ClothError::InvalidCollider("restitution must be in [0, 1]"));
+        }
+        if !(self.margin.is_finite() && self.margin >= 0.0) {
+            return Err(ClothError::InvalidCollider(
+                "margin must be finite and non-negative",
+            ));
+        }
+        Ok(())
+    }
+
+    pub(crate) fn geometry(&self) -> Geometry<'_> {
+        match &self.shape {
+            ColliderShape::Analytic(shape) => Geometry::Shape(*shape),
+            ColliderShape::Mesh(MeshShape(mesh)) => Geometry::Mesh(mesh),
+        }
+    }
+
+    /// The collider between fractions `from` and `to` of the step, poses
+    /// interpolated (translation linearly, rotation by slerp).
+    pub fn between(&self, from: f32, to: f32) -> MovingCollider<'_> {
+        let at = |t: f32| {
+            Isometry3d::new(
+                Vec3::from(self.start.translation).lerp(Vec3::from(self.end.translation), t),
+                self.start.rotation.slerp(self.end.rotation, t),
+            )
+        };
+        MovingCollider {
+            geometry: self.geometry(),
+            start: at(from),
+            end: at(to),
+            friction: self.friction,
+            restitution: self.restitution,
+        }
+    }
+}
+
+/// The colliders of the current fixed step, fed by every source in
+/// [`ClothColliderSources`].
+#[derive(Resource, Clone, Debug, Default)]
+pub struct ColliderScene {
+    /// Every valid collider with its poses over the step.
+    pub colliders: Vec<SceneCollider>,
+}
+
+impl ColliderScene {
+    /// Adds `collider` when it is valid ([`SceneCollider::validate`]);
+    /// otherwise leaves the scene as it was and says why.
+    pub fn push(&mut self, collider: SceneCollider) -> Result<(), ClothError> {
+        collider.validate()?;
+        self.colliders.push(collider);
+        Ok(())
+    }
+
+    /// Indices of the colliders whose swept box overlaps `[min, max]` (m).
+    pub fn overlapping(&self, min: Vec3, max: Vec3) -> impl Iterator<Item = usize> + '_ {
+        self.colliders
+            .iter()
+            .enumerate()
+            .filter(move |(_, c)| !(c.max.cmplt(min).any() || c.min.cmpgt(max).any()))
+            .map(|(i, _)| i)
+    }
+}
+
+/// What the cloths gave one collider over a fixed step.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Reflect)]
+pub struct ContactImpulse {
+    /// Linear impulse on the collider, N·s.
+    pub linear: Vec3,
+    /// Angular impulse on the collider about the world origin, N·m·s (the
+    /// sum of `point × impulse` over the contacts).
+    pub angular: Vec3,
+}
+
+impl ContactImpulse {
+    /// The angular impulse (N·m·s) about `point` (world, m), such as the
+    /// body's centre of mass.
+    pub fn angular_about(&self, point: Vec3) -> Vec3 {
+        self.angular - point.cross(self.linear)
+    }
+
+    /// Adds an impulse `impulse` (N·s) applied at `point` (world, m).
+    pub fn add_at(&mut self, impulse: Vec3, point: Vec3) {
+        self.linear += impulse;
+        self.angular += point.cross(impulse);
+    }
+}
+
+impl std::ops::AddAssign for ContactImpulse {
+    fn add_assign(&mut self, other: Self) {
+        self.linear += other.linear;
+        self.angular += other.angular;
+    }
+}
+
+/// The impulses every cloth gave each collider with
+/// [`feedback`](SceneCollider::feedback) over the last fixed step,
+/// per collider entity: set in
+/// [`ClothSystems::Integrate`](crate::plugin::schedule::ClothSystems::Integrate),
+/// read by bridges after it (the avian bridge applies them to dynamic bodies
+/// in [`ClothSystems::Writeback`](crate::plugin::schedule::ClothSystems::Writeback)).
+#[derive(Resource, Clone, Debug, Default)]
+pub struct ClothContactImpulses {
+    pub(crate) map: HashMap<Entity, ContactImpulse>,
+}
+
+impl ClothContactImpulses {
+    /// The impulse on `entity`'s colliders, if the cloth touched them.
+    pub fn get(&self, entity: Entity) -> Option<&ContactImpulse> {
+        self.map.get(&entity)
+    }
+
+    /// Every collider entity the cloth touched, with its impulse.
+    pub fn iter(&self) -> impl Iterator<Item = (Entity, &ContactImpulse)> + '_ {
+        self.map.iter().map(|(e, i)| (*e, i))
+    }
+
+    /// Whether no collider was touched.
+    pub fn is_empty(&self) -> bool {
+        self.map.is_empty()
+    }
+}
+
+/// Marks an entity with a [`ClothCollider`](super::ClothCollider) whose
+/// impulses from the cloth are measured into [`ClothContactImpulses`], for
+/// a game to apply to its own bodies. The avian bridge does this for
+/// dynamic bodies by itself.
+#[derive(Component, Clone, Copy, Debug, Default, Reflect)]
+#[reflect(Component, Default)]
+pub struct ReportClothImpulses;
