@@ -27,7 +27,7 @@ use bevy::input::ButtonInput;
 use bevy::input::keyboard::KeyCode;
 use bevy::math::{Affine3A, Isometry3d, Vec3};
 use bevy::prelude::*;
-use bevy::shape::{Capsule3d, Cylinder, Plane3d, Sphere};
+use bevy::shape::{Capsule3d, Cone, Cylinder, Plane3d, Sphere};
 
 use crate::plugin::anchor::ClothAnchors;
 use crate::plugin::collision::{ClothCollider, ClothCollision, ColliderShape, Shape};
@@ -296,6 +296,12 @@ fn draw_collider(
                     half_height,
                 } => {
                     gizmos.primitive_3d(&Cylinder::new(radius, 2.0 * half_height), iso, grey);
+                }
+                Shape::Cone {
+                    radius,
+                    half_height,
+                } => {
+                    gizmos.primitive_3d(&Cone::new(radius, 2.0 * half_height), iso, grey);
                 }
             }
             1

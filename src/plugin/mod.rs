@@ -10,6 +10,8 @@
 //! gathering poses and forces.
 
 pub mod anchor;
+#[cfg(feature = "avian")]
+pub mod avian;
 pub mod builder;
 pub mod collision;
 pub mod components;

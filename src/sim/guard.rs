@@ -499,6 +499,9 @@ pub fn step_guarded<H: ContactHook>(input: StepInput<'_, H>) -> GuardedStep {
             return kept(state, effective, first, false);
         }
         // Undo the attempt.
+        if let Some(hook) = hook.as_mut() {
+            hook.undo();
+        }
         particles.positions.clone_from(&state.good_x);
         particles.velocities.clone_from(&state.good_v);
         buffers.implicit.reset_history();

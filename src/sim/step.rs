@@ -58,8 +58,14 @@ pub trait ContactHook {
     /// After an implicit substep, before [`resolve`](Self::resolve): the
     /// contacts its solve held, whose [`impulses`](ContactBuffers::impulses)
     /// say what each gave its particle (N·s), with the particles'
-    /// positions (m) at the substep's end. Nothing by default.
-    fn solved(&mut self, _x: &[Vec3], _contacts: &ContactBuffers) {}
+    /// positions (m) and velocities (m/s) at the substep's end. Nothing by
+    /// default.
+    fn solved(&mut self, _x: &[Vec3], _v: &[Vec3], _contacts: &ContactBuffers) {}
+
+    /// The step's attempt so far was undone and is taken again (the
+    /// [`guard`](crate::sim::guard)'s retry): forget what it measured.
+    /// Nothing by default.
+    fn undo(&mut self) {}
 }
 
 impl<F: FnMut(Substep, &[Vec3], &mut [Vec3], &mut [Vec3], &[f32])> ContactHook for F {
@@ -190,7 +196,7 @@ pub fn step_cloth_with(
         );
         if let Some(hook) = contacts.as_mut() {
             if implicit && buffers.implicit.contacts.any() {
-                hook.solved(positions, &buffers.implicit.contacts);
+                hook.solved(positions, velocities, &buffers.implicit.contacts);
             }
             let held = if implicit {
                 buffers.implicit.contacts.holds()

@@ -127,7 +127,7 @@ impl Feedback {
         let mut total = ContactImpulse::default();
         for (((&before, &after), &p), &w) in self.before.iter().zip(v).zip(x).zip(w) {
             if after != before && w > 0.0 {
-                total.add_at(-(after - before) / w, p);
+                total.add_at(-(after - before) / w, p, after);
             }
         }
         if total != ContactImpulse::default() {
@@ -211,6 +211,12 @@ impl ContactHook for SceneContacts<'_> {
         if held.len() == x.len() {
             for &c in self.near {
                 let collider = &self.scene.colliders[c];
+                // A body that gives way moved within the solve: its held
+                // particles are where the solve left them, and the next
+                // step's springs hold what overlap is left.
+                if collider.mass.is_finite() {
+                    continue;
+                }
                 if collider.feedback {
                     self.feedback.mark(v);
                 }
@@ -258,16 +264,32 @@ impl ContactHook for SceneContacts<'_> {
             }
         }
         predict::keep_nearest(out);
+        // A body that gives way shares its mass among its contacts.
+        for &c in self.near {
+            let mass = self.scene.colliders[c].mass;
+            if mass.is_finite() {
+                let source = c as u32;
+                let count = out.iter().filter(|s| s.source == source).count();
+                for contact in out.iter_mut().filter(|s| s.source == source) {
+                    contact.body_mass = mass / count as f32;
+                }
+            }
+        }
     }
 
-    fn solved(&mut self, x: &[Vec3], contacts: &ContactBuffers) {
+    fn undo(&mut self) {
+        self.feedback.impulses.clear();
+    }
+
+    fn solved(&mut self, x: &[Vec3], v: &[Vec3], contacts: &ContactBuffers) {
         for (contact, impulse) in contacts.impulses() {
             let c = contact.source as usize;
             let p = contact.particle as usize;
-            if let (Some(collider), Some(&at)) = (self.scene.colliders.get(c), x.get(p))
+            if let (Some(collider), Some(&at), Some(&moving)) =
+                (self.scene.colliders.get(c), x.get(p), v.get(p))
                 && collider.feedback
             {
-                self.feedback.entry(c).add_at(-impulse, at);
+                self.feedback.entry(c).add_at(-impulse, at, moving);
             }
         }
     }

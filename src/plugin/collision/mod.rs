@@ -137,6 +137,15 @@ impl ClothCollider {
         })
     }
 
+    /// A solid cone along local Y, apex up: base `radius` and half the
+    /// height, m.
+    pub fn cone(radius: f32, half_height: f32) -> Self {
+        Self::analytic(Shape::Cone {
+            radius,
+            half_height,
+        })
+    }
+
     /// A triangle mesh from a Bevy `Mesh` (triangle list, `Float32x3`
     /// positions) in the entity's local frame; the BVH is built here, once.
     pub fn mesh(mesh: &Mesh) -> Result<Self, ClothError> {
@@ -319,18 +328,21 @@ pub(crate) fn configure(app: &mut App, schedule: Interned<dyn ScheduleLabel>) {
         );
 }
 
+/// What the [`ClothCollider`] source reads of each collider.
+type OwnColliders = (
+    Entity,
+    &'static ClothCollider,
+    WorldPose,
+    &'static mut ColliderMotion,
+    Option<&'static ContactLayers>,
+    Has<ReportClothImpulses>,
+);
+
 /// The [`ClothCollider`] source, in [`ClothColliderSources`]: every valid
 /// collider's poses over the coming step; its end pose is its next start.
 fn gather_colliders(
     _main: crate::plugin::schedule::MainThread,
-    mut colliders: Query<(
-        Entity,
-        &ClothCollider,
-        WorldPose,
-        &mut ColliderMotion,
-        Option<&ContactLayers>,
-        Has<ReportClothImpulses>,
-    )>,
+    mut colliders: Query<OwnColliders>,
     mut scene: ResMut<ColliderScene>,
 ) {
     for (entity, collider, pose, mut motion, layers, feedback) in &mut colliders {

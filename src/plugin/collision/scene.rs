@@ -113,6 +113,12 @@ pub struct SceneCollider {
     /// Whether the step measures the impulses the cloth gives it
     /// ([`ClothContactImpulses`]): on for bodies that feel the cloth.
     pub feedback: bool,
+    /// The mass (kg) of the body that gives way when the cloth pushes it,
+    /// taken into the implicit solve
+    /// ([`contacts`](crate::sim::integrate::implicit::contacts)); infinite
+    /// (the default) for a collider that moves as it was going to
+    /// whatever the cloth does.
+    pub mass: f32,
 }
 
 impl SceneCollider {
@@ -132,6 +138,7 @@ impl SceneCollider {
             margin: 0.0,
             layers: ContactLayers::ALL,
             feedback: false,
+            mass: f32::INFINITY,
         };
         collider.update_bounds();
         collider
@@ -168,6 +175,13 @@ impl SceneCollider {
         self
     }
 
+    /// With a body of `mass` kg behind it that gives way (see
+    /// [`mass`](Self::mass)).
+    pub fn with_mass(mut self, mass: f32) -> Self {
+        self.mass = mass;
+        self
+    }
+
     /// Recomputes [`min`](Self::min)/[`max`](Self::max) from the shape,
     /// margin and poses.
     pub fn update_bounds(&mut self) {
@@ -183,7 +197,7 @@ impl SceneCollider {
 
     /// Checks the shape (finite, positive dimensions; a mesh with
     /// triangles), the poses (finite), friction (finite, ≥ 0), restitution
-    /// (in [0, 1]) and margin (finite, ≥ 0).
+    /// (in [0, 1]), mass (> 0, may be infinite) and margin (finite, ≥ 0).
     pub fn validate(&self) -> Result<(), ClothError> {
         self.shape.validate()?;
         let finite = |p: &Isometry3d| {
@@ -201,6 +215,9 @@ impl SceneCollider {
         }
         if !(0.0..=1.0).contains(&self.restitution) {
             return Err(ClothError::InvalidCollider("restitution must be in [0, 1]"));
+        }
+        if self.mass.is_nan() || self.mass <= 0.0 {
+            return Err(ClothError::InvalidCollider("mass must be positive"));
         }
         if !(self.margin.is_finite() && self.margin >= 0.0) {
             return Err(ClothError::InvalidCollider(
@@ -271,6 +288,12 @@ pub struct ContactImpulse {
     /// Angular impulse on the collider about the world origin, N·m·s (the
     /// sum of `point × impulse` over the contacts).
     pub angular: Vec3,
+    /// The velocity (m/s) of the cloth where it touched the collider,
+    /// averaged with each contact's impulse as weight.
+    pub cloth_velocity: Vec3,
+    /// The weight of that average: the sum of the contacts' impulse
+    /// magnitudes, N·s.
+    weight: f32,
 }
 
 impl ContactImpulse {
@@ -280,10 +303,15 @@ impl ContactImpulse {
         self.angular - point.cross(self.linear)
     }
 
-    /// Adds an impulse `impulse` (N·s) applied at `point` (world, m).
-    pub fn add_at(&mut self, impulse: Vec3, point: Vec3) {
-        self.linear += impulse;
-        self.angular += point.cross(impulse);
+    /// Adds an impulse `impulse` (N·s) applied at `point` (world, m) by
+    /// cloth moving at `velocity` (m/s).
+    pub fn add_at(&mut self, impulse: Vec3, point: Vec3, velocity: Vec3) {
+        *self += Self {
+            linear: impulse,
+            angular: point.cross(impulse),
+            cloth_velocity: velocity,
+            weight: impulse.length(),
+        };
     }
 }
 
@@ -291,6 +319,12 @@ impl std::ops::AddAssign for ContactImpulse {
     fn add_assign(&mut self, other: Self) {
         self.linear += other.linear;
         self.angular += other.angular;
+        let weight = self.weight + other.weight;
+        if weight > 0.0 {
+            self.cloth_velocity =
+                (self.cloth_velocity * self.weight + other.cloth_velocity * other.weight) / weight;
+        }
+        self.weight = weight;
     }
 }
 

@@ -57,6 +57,7 @@ pub fn predict_contacts(
                 velocity,
                 friction: collider.friction,
                 source: 0,
+                body_mass: f32::INFINITY,
             });
         }
     }
@@ -213,6 +214,7 @@ mod tests {
             velocity: Vec3::ZERO,
             friction: 0.0,
             source: 0,
+            body_mass: f32::INFINITY,
         };
         let mut list = vec![c(3, 0.0), c(1, 0.2), c(3, -0.1), c(1, 0.1)];
         keep_nearest(&mut list);

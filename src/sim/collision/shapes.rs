@@ -41,6 +41,14 @@ pub enum Shape {
         /// Half the height, m.
         half_height: f32,
     },
+    /// A solid cone along local Y: its round base of `radius` m at
+    /// `y = −half_height`, its apex at `y = +half_height` (m).
+    Cone {
+        /// Radius of the base, m.
+        radius: f32,
+        /// Half the height, m.
+        half_height: f32,
+    },
 }
 
 impl Shape {
@@ -69,6 +77,10 @@ impl Shape {
                 radius,
                 half_height,
             } => cylinder_distance(p, radius, half_height),
+            Shape::Cone {
+                radius,
+                half_height,
+            } => cone_distance(p, radius, half_height),
         }
     }
 
@@ -87,6 +99,10 @@ impl Shape {
                 radius,
                 half_height,
             } => Vec2::new(radius, half_height).length(),
+            Shape::Cone {
+                radius,
+                half_height,
+            } => Vec2::new(radius, half_height).length(),
         }
     }
 
@@ -102,6 +118,10 @@ impl Shape {
                 half_length,
             } => ok(radius) && half_length.is_finite() && half_length >= 0.0,
             Shape::Cylinder {
+                radius,
+                half_height,
+            } => ok(radius) && ok(half_height),
+            Shape::Cone {
                 radius,
                 half_height,
             } => ok(radius) && ok(half_height),
@@ -125,6 +145,39 @@ fn box_distance(p: Vec3, h: Vec3) -> (f32, Vec3) {
         (q.z, Vec3::Z * p.z.signum())
     };
     (d, axis)
+}
+
+/// Signed distance (m) and outward normal of a cone (see [`Shape::Cone`]),
+/// worked in the half-plane of the axis and the point: the boundary is the
+/// slant from the apex to the rim and the base from the rim to the axis.
+fn cone_distance(p: Vec3, radius: f32, half_height: f32) -> (f32, Vec3) {
+    let r = Vec2::new(p.x, p.z);
+    let rl = r.length();
+    let radial = if rl > 1e-12 { r / rl } else { Vec2::X };
+    let to3 = |n: Vec2| Vec3::new(radial.x * n.x, n.y, radial.y * n.x);
+    let q = Vec2::new(rl, p.y);
+    let (apex, rim) = (Vec2::new(0.0, half_height), Vec2::new(radius, -half_height));
+    let slant = rim - apex;
+    let t = ((q - apex).dot(slant) / slant.length_squared()).clamp(0.0, 1.0);
+    let on_slant = apex + t * slant;
+    let on_base = Vec2::new(rl.min(radius), -half_height);
+    let (d_slant, d_base) = (q.distance(on_slant), q.distance(on_base));
+    let inside = p.y >= -half_height && rl * 2.0 * half_height <= radius * (half_height - p.y);
+    let slant_normal = Vec2::new(2.0 * half_height, radius).normalize();
+    if inside {
+        return if d_slant <= d_base {
+            (-d_slant, to3(slant_normal))
+        } else {
+            (-d_base, Vec3::NEG_Y)
+        };
+    }
+    let (d, nearest, face) = if d_slant <= d_base {
+        (d_slant, on_slant, slant_normal)
+    } else {
+        (d_base, on_base, Vec2::NEG_Y)
+    };
+    let n = if d > 1e-9 { (q - nearest) / d } else { face };
+    (d, to3(n))
 }
 
 fn cylinder_distance(p: Vec3, radius: f32, half_height: f32) -> (f32, Vec3) {
@@ -256,6 +309,10 @@ mod tests {
             Shape::Cylinder {
                 radius: 0.6,
                 half_height: 0.05,
+            },
+            Shape::Cone {
+                radius: 0.4,
+                half_height: 0.3,
             },
         ];
         let points = [

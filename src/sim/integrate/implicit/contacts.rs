@@ -26,6 +26,16 @@
 //!   step on (the lagged, smoothed friction of implicit contact solvers,
 //!   after Bridson et al. 2002).
 //!
+//! **A body that gives way.** A contact with a free body of mass `M`
+//! (shared among the body's contacts: [`SolveContact::body_mass`]) is held
+//! by the same spring in series with the body's inertia: the body moves
+//! `−γ² λ / M` along the normal within the step as the spring pushes it,
+//! which leaves the spring `k / (1 + κ m / M)`. A heavy body (`M ≫ κ m`)
+//! holds the particle as a fixed surface does; a light one is pushed along
+//! with the particle's motion, and the cloth feels its inertia within the
+//! solve rather than a step late. The caller applies the impulses
+//! ([`ContactBuffers::impulses`]) to the body after the step.
+//!
 //! After the solve the spring gives the contact force `λ` of the step: a
 //! pulling one means the particle was leaving, and the spring held it back
 //! for that step; it is not held again unless it comes back. Otherwise `λ`
@@ -51,6 +61,10 @@ pub struct SolveContact {
     /// them: the solve does not read it, and hands it back with the
     /// contact's impulse ([`ContactBuffers::impulses`]).
     pub source: u32,
+    /// The mass (kg) of the body behind the surface that this contact
+    /// moves: the body's mass shared among its contacts, or infinite for a
+    /// surface that does not give way (module docs).
+    pub body_mass: f32,
 }
 
 /// How the solve held a particle in the last step.
@@ -90,6 +104,8 @@ struct Held {
     index: usize,
     /// Normal spring constant, N/m.
     k: f32,
+    /// The particle's mass, kg.
+    mass: f32,
     /// The displacement the step gives the particle besides `γ Δv`, m.
     displacement: Vec3,
     /// How far into the surface that displacement would take it, m (the
@@ -210,7 +226,8 @@ impl ContactBuffers {
             };
             self.held.push(Held {
                 index,
-                k: KAPPA / (w * gamma * gamma),
+                k: KAPPA / (w * gamma * gamma) / (1.0 + KAPPA / (w * c.body_mass)),
+                mass: 1.0 / w,
                 displacement: d,
                 reach,
                 along,
@@ -287,9 +304,8 @@ impl ContactBuffers {
             if let Friction::Slide(kinetic) = held.friction
                 && along.dot(kinetic) < 0.0
             {
-                // Friction took out more than the motion: it stops (the
-                // particle's mass is `k γ² / κ`).
-                impulse -= held.k * gamma * gamma / KAPPA * along;
+                // Friction took out more than the motion: it stops.
+                impulse -= held.mass * along;
                 v[p] -= along;
                 x[p] -= gamma * along;
                 along = Vec3::ZERO;

@@ -42,6 +42,7 @@ fn on_floor(y: f32, push: Vec3, mu: f32, steps: usize) -> (Vec3, Vec3, Hold) {
                 velocity: Vec3::ZERO,
                 friction: mu,
                 source: 0,
+                body_mass: f32::INFINITY,
             });
         }
         backward_euler(&dynamics, &mut x, &mut v, H, &mut buffers);
@@ -80,6 +81,7 @@ fn a_falling_particle_lands_on_the_floor_in_one_step() {
         velocity: Vec3::ZERO,
         friction: 0.0,
         source: 0,
+        body_mass: f32::INFINITY,
     });
     backward_euler(&dynamics, &mut x, &mut v, H, &mut buffers);
     // It ends on the surface (to within 1/(1 + κ) of the 5 cm it would
@@ -127,4 +129,65 @@ fn friction_holds_inside_its_cone_and_slides_by_coulomb_outside_it() {
         "{v} vs {expected}"
     );
     assert_eq!(hold, Hold::Slide);
+}
+
+/// One particle falling at 3 m/s from 1 cm onto a surface, in one backward
+/// Euler step: its position, velocity and the contact's impulse (N·s),
+/// with a body of `body_mass` kg behind the surface.
+fn land_on(body_mass: f32) -> (Vec3, Vec3, Vec3) {
+    // No air damping: gravity and the contact are the only forces.
+    let settings = SimSettings {
+        damping: 0.0,
+        ..SimSettings::default()
+    };
+    let connections = Connections::default();
+    let w = [1.0 / M];
+    let dynamics = Dynamics {
+        settings: &settings,
+        connections: &connections,
+        inverse_masses: &w,
+        external: &[],
+        workers: crate::sim::workers::Pool::none(),
+    };
+    let (mut x, mut v) = ([Vec3::Y * 0.01], [Vec3::NEG_Y * 3.0]);
+    let v0 = v[0];
+    let mut buffers = ImplicitBuffers::default();
+    buffers.contacts.list.push(SolveContact {
+        particle: 0,
+        normal: Vec3::Y,
+        gap: 0.01,
+        velocity: Vec3::ZERO,
+        friction: 0.0,
+        source: 7,
+        body_mass,
+    });
+    backward_euler(&dynamics, &mut x, &mut v, H, &mut buffers);
+    let impulses: Vec<_> = buffers.contacts.impulses().collect();
+    assert_eq!(impulses.len(), 1);
+    assert_eq!(impulses[0].0.source, 7, "the contact's collider comes back");
+    // Without the contact the step would change the momentum by m g h.
+    let free = M * (v0 + settings.gravity * H);
+    let by_contact = M * v[0] - free;
+    let impulse = impulses[0].1;
+    assert!(
+        (impulse - by_contact).length() <= 1e-3 * by_contact.length(),
+        "the impulse {impulse} is the momentum the contact gave, {by_contact}"
+    );
+    (x[0], v[0], impulse)
+}
+
+#[test]
+fn a_contacts_impulse_is_the_momentum_it_gave_and_a_light_body_gives_way() {
+    let (x_fixed, _, fixed) = land_on(f32::INFINITY);
+    let (x_heavy, _, heavy) = land_on(1000.0 * M);
+    let (x_light, _, light) = land_on(0.1 * M);
+    // A body far heavier than the particle holds it as a fixed surface
+    // does; one lighter than it is pushed along and takes little impulse.
+    assert!(
+        (heavy - fixed).length() < 0.01 * fixed.length(),
+        "{heavy} {fixed}"
+    );
+    assert!(light.y > 0.0 && light.y < 0.2 * fixed.y, "{light} {fixed}");
+    assert!(x_light.y < x_fixed.y - 0.01, "{x_light} {x_fixed}");
+    assert!((x_heavy - x_fixed).length() < 1e-3);
 }

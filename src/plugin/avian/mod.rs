@@ -1,0 +1,422 @@
+//! The avian bridge (cargo feature `avian`, avian3d 0.8): avian's colliders
+//! are cloth colliders, and the cloth pushes avian's dynamic bodies back.
+//!
+//! [`ClothAvianPlugin`], added after [`ClothPlugin`](crate::ClothPlugin)
+//! and avian's `PhysicsPlugins`:
+//!
+//! - **Colliders.** Every avian `Collider` collides with every cloth whose
+//!   [`ContactLayers`] it shares (see [`From<CollisionLayers>`](ContactLayers)), with no
+//!   [`ClothCollider`] beside it: balls, cuboids, capsules, cylinders and
+//!   cones exactly; convex hulls, triangle meshes, height fields and
+//!   triangles as triangle meshes; compounds part by part; the rounded
+//!   shapes with their border radius; half-spaces as planes. Sensors,
+//!   disabled colliders and colliders of disabled bodies are ignored, and
+//!   an entity that also has a `ClothCollider` collides through that one
+//!   only. A shape the cloth cannot use (a segment, a polyline, voxels) is
+//!   skipped with one warning per collider.
+//! - **Motion.** A collider is taken where avian left it (its body's
+//!   `Position`/`Rotation` and the collider's offset on the body) and moved
+//!   over the coming fixed step at its body's `LinearVelocity` and
+//!   `AngularVelocity` about the centre of mass: the same swept and
+//!   in-solve contacts as for a moving `ClothCollider`. A body whose
+//!   velocity is not finite is taken as still (one warning).
+//! - **Friction and restitution**: the collider's `Friction` (or its body's,
+//!   or avian's default) combined with the cloth's
+//!   [`ClothAvianPlugin::cloth_friction`] as avian combines two colliders'
+//!   (the higher-priority rule of the two); restitution likewise.
+//! - **Two-way coupling.** The impulses the cloth's contacts give a
+//!   `RigidBody::Dynamic` body over a step ([`ClothContactImpulses`]) are
+//!   applied to it in [`ClothSystems::Writeback`], linear and angular about
+//!   its centre of mass, through avian's `Forces`; avian's step in
+//!   `FixedPostUpdate` then moves it. Kinematic and static bodies are
+//!   one-way.
+//!
+//! The bridge is a plugin of its own rather than part of `ClothPlugin`, so
+//! that a game chooses it (and its settings) where it adds avian, and a
+//! game with avian whose cloths meet only `ClothCollider`s pays nothing for
+//! it.
+
+mod shapes;
+
+use std::sync::Arc;
+
+use avian3d::prelude::{
+    AngularVelocity, Collider, ColliderDisabled, ColliderOf, ColliderTransform, CollisionLayers,
+    ComputedCenterOfMass, ComputedMass, Forces, Friction, Gravity, LinearVelocity, Position,
+    ReadRigidBodyForces, Restitution, RigidBody, RigidBodyDisabled, Rotation, Sensor,
+    WriteRigidBodyForces,
+};
+use bevy::app::{App, FixedUpdate, Plugin};
+use bevy::ecs::query::QueryData;
+use bevy::ecs::schedule::ScheduleLabel;
+use bevy::log::warn;
+use bevy::math::{Isometry3d, Quat, Vec3};
+use bevy::platform::collections::HashSet;
+use bevy::prelude::*;
+use bevy::time::Fixed;
+
+use crate::plugin::ClothSchedule;
+use crate::plugin::collision::{
+    ClothCollider, ClothColliderSources, ClothContactImpulses, ColliderScene, ContactImpulse,
+    ContactLayers, SceneCollider,
+};
+use crate::plugin::schedule::ClothSystems;
+use shapes::Piece;
+
+/// avian's colliders as cloth colliders, and the cloth's impulses on
+/// avian's dynamic bodies (module docs). Add it after `ClothPlugin`.
+///
+/// ```no_run
+/// # use bevy::prelude::*;
+/// # use bevy_cloth::prelude::*;
+/// use avian3d::prelude::*;
+/// use bevy_cloth::plugin::avian::ClothAvianPlugin;
+///
+/// App::new()
+///     .add_plugins((DefaultPlugins, PhysicsPlugins::default()))
+///     .add_plugins((ClothPlugin::default(), ClothAvianPlugin::default()))
+///     .run();
+/// ```
+#[derive(Clone, Debug)]
+#[non_exhaustive]
+pub struct ClothAvianPlugin {
+    /// The cloth's side of every contact's friction, combined with the
+    /// collider's as avian combines two colliders'.
+    pub cloth_friction: Friction,
+    /// The cloth's side of every contact's restitution, combined likewise.
+    pub cloth_restitution: Restitution,
+    /// Whether the cloth pushes dynamic bodies back (on by default).
+    pub two_way: bool,
+}
+
+impl Default for ClothAvianPlugin {
+    fn default() -> Self {
+        Self {
+            cloth_friction: Friction::new(0.4),
+            cloth_restitution: Restitution::ZERO,
+            two_way: true,
+        }
+    }
+}
+
+impl ClothAvianPlugin {
+    /// With the cloth's friction coefficient μ (avian's default rule).
+    pub fn with_cloth_friction(mut self, friction: f32) -> Self {
+        self.cloth_friction = Friction::new(friction);
+        self
+    }
+
+    /// With or without the cloth's impulses on dynamic bodies.
+    pub fn with_two_way(mut self, on: bool) -> Self {
+        self.two_way = on;
+        self
+    }
+}
+
+/// The settings of [`ClothAvianPlugin`], as a resource.
+#[derive(Resource, Clone, Debug)]
+pub struct ClothAvianSettings {
+    /// See [`ClothAvianPlugin::cloth_friction`].
+    pub cloth_friction: Friction,
+    /// See [`ClothAvianPlugin::cloth_restitution`].
+    pub cloth_restitution: Restitution,
+    /// See [`ClothAvianPlugin::two_way`].
+    pub two_way: bool,
+}
+
+impl Plugin for ClothAvianPlugin {
+    fn build(&self, app: &mut App) {
+        let schedule = app
+            .world()
+            .get_resource::<ClothSchedule>()
+            .map_or(FixedUpdate.intern(), |s| s.0);
+        app.insert_resource(ClothAvianSettings {
+            cloth_friction: self.cloth_friction,
+            cloth_restitution: self.cloth_restitution,
+            two_way: self.two_way,
+        })
+        .add_systems(
+            schedule,
+            (
+                feed_colliders
+                    .run_if(any_with_component::<Collider>)
+                    .in_set(ClothColliderSources),
+                push_bodies
+                    .run_if(|i: Res<ClothContactImpulses>| !i.is_empty())
+                    .in_set(ClothSystems::Writeback),
+            ),
+        );
+    }
+}
+
+impl From<CollisionLayers> for ContactLayers {
+    fn from(layers: CollisionLayers) -> Self {
+        Self::new(layers.memberships.0, layers.filters.0)
+    }
+}
+
+/// An avian collider's shape as the cloth's pieces (or the kind of shape
+/// the cloth cannot use), converted when the collider first feeds the
+/// scene and again when it changes.
+#[derive(Component, Clone, Debug)]
+pub struct AvianClothShape {
+    pieces: Result<Arc<[Piece]>, String>,
+}
+
+impl AvianClothShape {
+    fn of(collider: &Collider) -> Self {
+        Self {
+            pieces: shapes::pieces(collider.shape_scaled()).map(Arc::from),
+        }
+    }
+}
+
+/// What the bridge reads of an avian collider.
+#[derive(QueryData)]
+#[query_data(mutable)]
+struct ColliderData {
+    entity: Entity,
+    collider: Ref<'static, Collider>,
+    position: &'static Position,
+    rotation: &'static Rotation,
+    of: Option<&'static ColliderOf>,
+    offset: Option<&'static ColliderTransform>,
+    layers: Option<&'static CollisionLayers>,
+    friction: Option<&'static Friction>,
+    restitution: Option<&'static Restitution>,
+    shape: Option<&'static mut AvianClothShape>,
+}
+
+/// What the bridge reads of a collider's body.
+#[derive(QueryData)]
+struct BodyData {
+    body: &'static RigidBody,
+    position: &'static Position,
+    rotation: &'static Rotation,
+    velocity: Option<&'static LinearVelocity>,
+    spin: Option<&'static AngularVelocity>,
+    centre: Option<&'static ComputedCenterOfMass>,
+    mass: Option<&'static ComputedMass>,
+    friction: Option<&'static Friction>,
+    restitution: Option<&'static Restitution>,
+    disabled: Has<RigidBodyDisabled>,
+}
+
+/// A body's motion over the coming step: its centre of mass (world, m) and
+/// linear (m/s) and angular (rad/s) velocity.
+#[derive(Clone, Copy, Debug, Default)]
+struct Motion {
+    centre: Vec3,
+    linear: Vec3,
+    angular: Vec3,
+}
+
+impl Motion {
+    /// `pose` moved on by `dt` s.
+    fn advance(&self, pose: Isometry3d, dt: f32) -> Isometry3d {
+        let turn = Quat::from_scaled_axis(self.angular * dt);
+        let at = Vec3::from(pose.translation);
+        Isometry3d::new(
+            self.centre + turn * (at - self.centre) + self.linear * dt,
+            (turn * pose.rotation).normalize(),
+        )
+    }
+}
+
+/// The avian colliders the cloth meets: not sensors, not disabled, and not
+/// already a [`ClothCollider`].
+type Usable = (
+    Without<Sensor>,
+    Without<ColliderDisabled>,
+    Without<ClothCollider>,
+);
+
+/// The avian source, in [`ClothColliderSources`]: every usable avian
+/// collider's pieces over the coming step.
+#[expect(
+    clippy::too_many_arguments,
+    reason = "a Bevy system: each parameter is one resource or query"
+)]
+fn feed_colliders(
+    _main: crate::plugin::schedule::MainThread,
+    mut commands: Commands,
+    time: Res<Time<Fixed>>,
+    settings: Res<ClothAvianSettings>,
+    mut colliders: Query<ColliderData, Usable>,
+    bodies: Query<BodyData>,
+    mut scene: ResMut<ColliderScene>,
+    mut warned: Local<HashSet<Entity>>,
+) {
+    let dt = time.timestep().as_secs_f32();
+    for mut item in &mut colliders {
+        // The pieces: converted once, again when the collider changes.
+        let entity = item.entity;
+        let mut fresh = None;
+        let pieces = match item.shape.as_deref_mut() {
+            Some(shape) => {
+                if item.collider.is_changed() {
+                    *shape = AvianClothShape::of(&item.collider);
+                }
+                shape.pieces.clone()
+            }
+            None => fresh
+                .insert(AvianClothShape::of(&item.collider))
+                .pieces
+                .clone(),
+        };
+        if let Some(fresh) = fresh {
+            commands.entity(entity).try_insert(fresh);
+        }
+        let pieces = match pieces {
+            Ok(pieces) => pieces,
+            Err(kind) => {
+                if warned.insert(entity) {
+                    warn!(
+                        "avian collider {entity} is ignored by cloth: its shape ({kind}) is not supported"
+                    );
+                }
+                continue;
+            }
+        };
+        // Where the collider is and how it moves: through its body.
+        let own = Isometry3d::new(item.position.0, item.rotation.0);
+        let body_entity = item.of.map_or(item.entity, |of| of.body);
+        let body = bodies.get(body_entity).ok();
+        if body.as_ref().is_some_and(|b| b.disabled) {
+            continue;
+        }
+        let pose = match (&body, item.offset) {
+            (Some(b), Some(offset)) if body_entity != item.entity => {
+                Isometry3d::new(b.position.0, b.rotation.0)
+                    * Isometry3d::new(offset.translation, offset.rotation)
+            }
+            _ => own,
+        };
+        let mut motion = Motion::default();
+        let mut dynamic = false;
+        let mut mass = f32::INFINITY;
+        if let Some(b) = &body
+            && !b.body.is_static()
+        {
+            dynamic = b.body.is_dynamic();
+            if dynamic && settings.two_way {
+                // Zero inverse mass (infinitely heavy) stays infinite.
+                mass = b.mass.map_or(f32::INFINITY, |m| 1.0 / m.inverse());
+            }
+            let centre = b.centre.map_or(Vec3::ZERO, |c| c.0);
+            motion = Motion {
+                centre: b.position.0 + b.rotation.0 * centre,
+                linear: b.velocity.map_or(Vec3::ZERO, |v| v.0),
+                angular: b.spin.map_or(Vec3::ZERO, |w| w.0),
+            };
+            if !(motion.linear.is_finite()
+                && motion.angular.is_finite()
+                && motion.centre.is_finite())
+            {
+                if warned.insert(body_entity) {
+                    warn!(
+                        "avian body {body_entity} has a non-finite velocity: cloth takes it as still"
+                    );
+                }
+                motion = Motion::default();
+            }
+        }
+        let end = motion.advance(pose, dt);
+        let body_friction = body.as_ref().and_then(|b| b.friction);
+        let body_restitution = body.as_ref().and_then(|b| b.restitution);
+        let friction = item
+            .friction
+            .or(body_friction)
+            .copied()
+            .unwrap_or_default()
+            .combine(settings.cloth_friction)
+            .dynamic_coefficient;
+        let restitution = item
+            .restitution
+            .or(body_restitution)
+            .copied()
+            .unwrap_or_default()
+            .combine(settings.cloth_restitution)
+            .coefficient
+            .clamp(0.0, 1.0);
+        let layers = item
+            .layers
+            .copied()
+            .map_or(ContactLayers::ALL, ContactLayers::from);
+        for piece in pieces.iter() {
+            let collider = SceneCollider::new(
+                item.entity,
+                piece.shape.clone(),
+                pose * piece.offset,
+                end * piece.offset,
+            )
+            .with_friction(friction)
+            .with_restitution(restitution)
+            .with_margin(piece.margin)
+            .with_layers(layers)
+            .with_feedback(dynamic && settings.two_way)
+            .with_mass(mass);
+            if let Err(error) = scene.push(collider)
+                && warned.insert(entity)
+            {
+                warn!("avian collider {entity} is ignored by cloth: {error}");
+            }
+        }
+    }
+}
+
+/// [`ClothSystems::Writeback`]: the cloth's impulses on each dynamic body,
+/// linear and angular about its centre of mass.
+fn push_bodies(
+    _main: crate::plugin::schedule::MainThread,
+    time: Res<Time<Fixed>>,
+    gravity: Option<Res<Gravity>>,
+    impulses: Res<ClothContactImpulses>,
+    colliders: Query<&ColliderOf>,
+    mut bodies: Query<
+        (&RigidBody, &ComputedCenterOfMass, &ComputedMass, Forces),
+        Without<RigidBodyDisabled>,
+    >,
+) {
+    for (entity, impulse) in impulses.iter() {
+        let body = colliders.get(entity).map_or(entity, |of| of.body);
+        let Ok((kind, centre, mass, mut forces)) = bodies.get_mut(body) else {
+            continue;
+        };
+        if !kind.is_dynamic() || !(impulse.linear.is_finite() && impulse.angular.is_finite()) {
+            continue;
+        }
+        let scale = limit(
+            impulse,
+            (forces.linear_velocity(), 1.0 / mass.inverse()),
+            gravity.as_ref().map_or(Vec3::ZERO, |g| g.0) * time.timestep().as_secs_f32(),
+        );
+        let centre = forces.position() + forces.rotation() * centre.0;
+        let angular = impulse.angular_about(centre);
+        forces.apply_linear_impulse(scale * impulse.linear);
+        forces.apply_angular_impulse(scale * angular);
+    }
+}
+
+/// The share (0 … 1) of the cloth's `impulse` a body of velocity `v` (m/s)
+/// and mass `m` (kg) takes: all of it, unless it would leave the body
+/// faster along the impulse than the cloth there moves that way (or than
+/// the step's gravity `gravity_step`, m/s, would take back). A contact
+/// with cloth is at most inelastic: a cloth that rebounds carries the body
+/// with it, but one caught over-stretched by a body the step took as
+/// moving on does not throw it.
+fn limit(impulse: &ContactImpulse, (v, m): (Vec3, f32), gravity_step: Vec3) -> f32 {
+    let size = impulse.linear.length();
+    if !(size > 0.0 && m.is_finite() && m > 0.0) {
+        return 1.0;
+    }
+    let along = impulse.linear / size;
+    let cloth = impulse.cloth_velocity.dot(along).max(0.0);
+    let ceiling = cloth + (-gravity_step.dot(along)).max(0.0);
+    let room = m * (ceiling - v.dot(along));
+    if room >= size {
+        1.0
+    } else {
+        (room / size).max(0.0)
+    }
+}
