@@ -265,11 +265,12 @@ fn layers_and_sensors_are_respected() {
     assert!(sensor < 0.1, "sensor: fell to {sensor}");
 }
 
-#[test]
-fn a_collider_whose_layers_change_lets_the_cloth_go() {
+/// A sheet come to rest on a 1 m static avian box (top at y = 1 m) above
+/// a floor: the app, the box, the cloth and its middle particle.
+fn resting_on_box() -> (App, Entity, Entity, usize) {
     let mut app = app();
     floor(&mut app);
-    let box_ = app
+    let body = app
         .world_mut()
         .spawn((
             RigidBody::Static,
@@ -279,6 +280,12 @@ fn a_collider_whose_layers_change_lets_the_cloth_go() {
         .id();
     let (cloth, middle) = sheet(&mut app, 1.1);
     run(&mut app, 60, cloth);
+    (app, body, cloth, middle)
+}
+
+#[test]
+fn a_collider_whose_layers_change_lets_the_cloth_go() {
+    let (mut app, box_, cloth, middle) = resting_on_box();
     assert!(positions(&app, cloth)[middle].y > 0.99);
     app.world_mut()
         .entity_mut(cloth)
@@ -371,18 +378,7 @@ fn bad_bodies_and_shapes_are_skipped_and_the_cloth_stays_finite() {
 
 #[test]
 fn a_cloth_whose_body_is_despawned_falls_on() {
-    let mut app = app();
-    floor(&mut app);
-    let body = app
-        .world_mut()
-        .spawn((
-            RigidBody::Static,
-            Collider::cuboid(1.0, 0.4, 1.0),
-            Transform::from_xyz(0.0, 0.8, 0.0),
-        ))
-        .id();
-    let (cloth, middle) = sheet(&mut app, 1.1);
-    run(&mut app, 60, cloth);
+    let (mut app, body, cloth, middle) = resting_on_box();
     app.world_mut().despawn(body);
     run(&mut app, 90, cloth);
     let y = positions(&app, cloth)[middle].y;
@@ -544,7 +540,7 @@ fn a_heavy_ball_dropped_into_a_hammock_is_never_thrown_faster_than_it_came() {
         let (_, track, _) = drop_ball(&mut app, cloth, (5.0, radius, 1.1), 120);
         let hit = track
             .iter()
-            .position(|(_, v)| v.y > -0.1 && track[0].1.y < 0.0)
+            .position(|(_, v)| v.y > -0.1)
             .unwrap_or(track.len() - 1);
         let impact = track[..=hit]
             .iter()
