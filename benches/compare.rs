@@ -20,11 +20,14 @@
 //!
 //! `cargo bench --bench compare -- 15 32` limits the sizes.
 
-use std::time::{Duration, Instant};
+#[path = "common/race.rs"]
+mod race;
 
-use bevy::prelude::*;
-use bevy::time::TimeUpdateStrategy;
-use bevy_cloth::prelude::*;
+use std::time::Duration;
+
+use bevy::math::Vec3;
+
+use race::{Ours, Runner, race, sizes, structural_strain, summary};
 use rapier_cloth_core as rc;
 
 /// Frames before timing starts.
@@ -32,57 +35,6 @@ const WARM_UP: usize = 60;
 
 /// The sizes timed unless the command line names others.
 const SIZES: [usize; 5] = [15, 32, 64, 128, 256];
-
-/// One cloth being stepped frame by frame.
-trait Runner {
-    /// One 1/60 s frame.
-    fn frame(&mut self);
-    /// Largest structural strain now.
-    fn strain(&self) -> f32;
-}
-
-/// This crate, with its defaults, in a headless App.
-struct Ours {
-    app: App,
-    cloth: Entity,
-    n: usize,
-}
-
-impl Ours {
-    fn new(n: usize) -> Self {
-        let mut app = App::new();
-        app.add_plugins((MinimalPlugins, ClothPlugin::default()))
-            .insert_resource(Time::<Fixed>::from_hz(60.0))
-            .insert_resource(TimeUpdateStrategy::FixedTimesteps(1));
-        let cloth = ClothBuilder::new(n as u32, n as u32)
-            .size(1.0, 1.0)
-            .position(Vec3::new(0.0, 1.5, 0.0))
-            .rotation(Quat::from_rotation_x(std::f32::consts::FRAC_PI_2))
-            .pin_corner(GridCorner::TopLeft)
-            .pin_corner(GridCorner::TopRight)
-            .build()
-            .expect("valid");
-        let cloth = app.world_mut().spawn(cloth).id();
-        app.update();
-        Self { app, cloth, n }
-    }
-}
-
-impl Runner for Ours {
-    fn frame(&mut self) {
-        self.app.update();
-    }
-
-    fn strain(&self) -> f32 {
-        let x = &self
-            .app
-            .world()
-            .get::<ClothParticles>(self.cloth)
-            .unwrap()
-            .positions;
-        structural_strain(self.n, 1.0 / (self.n - 1) as f32, |p| x[p])
-    }
-}
 
 /// rapier-cloth-core with its defaults.
 struct Theirs {
@@ -136,56 +88,8 @@ impl Runner for Theirs {
     }
 }
 
-/// The largest `ℓ/L − 1` over the links along an `n × n` grid of spacing
-/// `h` m (row-major particles at `x(p)`).
-fn structural_strain(n: usize, h: f32, x: impl Fn(usize) -> Vec3) -> f32 {
-    let mut worst = 0.0f32;
-    for j in 0..n {
-        for i in 0..n {
-            let p = j * n + i;
-            if i + 1 < n {
-                worst = worst.max(x(p).distance(x(p + 1)) / h - 1.0);
-            }
-            if j + 1 < n {
-                worst = worst.max(x(p).distance(x(p + n)) / h - 1.0);
-            }
-        }
-    }
-    worst
-}
-
-/// Median, least and largest of `ms`.
-fn summary(ms: &mut [f64]) -> (f64, f64, f64) {
-    ms.sort_by(f64::total_cmp);
-    (ms[ms.len() / 2], ms[0], ms[ms.len() - 1])
-}
-
-/// Times `frames` frames of each runner, in turns of `block` frames.
-fn race(runners: &mut [&mut dyn Runner], frames: usize, block: usize) -> Vec<Vec<f64>> {
-    let mut times = vec![Vec::with_capacity(frames); runners.len()];
-    while times[0].len() < frames {
-        for (r, t) in runners.iter_mut().zip(&mut times) {
-            for _ in 0..block {
-                let start = Instant::now();
-                r.frame();
-                t.push(start.elapsed().as_secs_f64() * 1e3);
-            }
-        }
-    }
-    times
-}
-
 fn main() {
-    let sizes: Vec<usize> = std::env::args()
-        .skip(1)
-        .filter_map(|a| a.parse().ok())
-        .filter(|&n| n >= 3)
-        .collect();
-    let sizes = if sizes.is_empty() {
-        SIZES.to_vec()
-    } else {
-        sizes
-    };
+    let sizes = sizes(&SIZES);
     println!(
         "| N × N | bevy_cloth ms/frame (range) | rapier-cloth-core ms/frame (range) | ratio | strain bevy_cloth | strain rapier |"
     );

@@ -28,9 +28,13 @@ pub mod mesh_builder;
 pub mod mesh_cloth;
 #[cfg(feature = "egui")]
 pub mod panel;
+#[cfg(any(feature = "avian", feature = "rapier"))]
+mod parry_shapes;
 #[cfg(feature = "picking")]
 pub mod picking;
 pub mod pose;
+#[cfg(feature = "rapier")]
+pub mod rapier;
 pub mod schedule;
 pub mod skin;
 pub mod systems;
@@ -65,7 +69,10 @@ use crate::plugin::material::ClothMaterial;
 /// schedule (`ClothPlugin::new(FixedPostUpdate)`, ordered against
 /// `PhysicsSystems` there) only when avian itself runs elsewhere; the
 /// schedule must run inside the fixed main loop, as the step reads
-/// `Time<Fixed>`.
+/// `Time<Fixed>`. bevy_rapier steps in `PostUpdate` by default, or in
+/// `FixedUpdate` with `in_fixed_schedule()`, where
+/// `ClothRapierPlugin` (feature `rapier`) orders the cloth
+/// before it.
 ///
 /// Needs Bevy's time (`MinimalPlugins` or `DefaultPlugins`); anchors need
 /// `TransformPlugin`; meshes need `Assets<Mesh>` (asset and mesh plugins).

@@ -36,8 +36,6 @@
 //! game with avian whose cloths meet only `ClothCollider`s pays nothing for
 //! it.
 
-mod shapes;
-
 use std::sync::Arc;
 
 use avian3d::prelude::{
@@ -57,11 +55,11 @@ use bevy::time::Fixed;
 
 use crate::plugin::ClothSchedule;
 use crate::plugin::collision::{
-    ClothCollider, ClothColliderSources, ClothContactImpulses, ColliderScene, ContactImpulse,
-    ContactLayers, SceneCollider,
+    ClothCollider, ClothColliderSources, ClothContactImpulses, ColliderScene, ContactLayers,
+    SceneCollider,
 };
+use crate::plugin::parry_shapes::{self as shapes, Piece};
 use crate::plugin::schedule::ClothSystems;
-use shapes::Piece;
 
 /// avian's colliders as cloth colliders, and the cloth's impulses on
 /// avian's dynamic bodies (module docs). Add it after `ClothPlugin`.
@@ -386,37 +384,14 @@ fn push_bodies(
         if !kind.is_dynamic() || !(impulse.linear.is_finite() && impulse.angular.is_finite()) {
             continue;
         }
-        let scale = limit(
-            impulse,
-            (forces.linear_velocity(), 1.0 / mass.inverse()),
+        let scale = impulse.inelastic_share(
+            forces.linear_velocity(),
+            1.0 / mass.inverse(),
             gravity.as_ref().map_or(Vec3::ZERO, |g| g.0) * time.timestep().as_secs_f32(),
         );
         let centre = forces.position() + forces.rotation() * centre.0;
         let angular = impulse.angular_about(centre);
         forces.apply_linear_impulse(scale * impulse.linear);
         forces.apply_angular_impulse(scale * angular);
-    }
-}
-
-/// The share (0 … 1) of the cloth's `impulse` a body of velocity `v` (m/s)
-/// and mass `m` (kg) takes: all of it, unless it would leave the body
-/// faster along the impulse than the cloth there moves that way (or than
-/// the step's gravity `gravity_step`, m/s, would take back). A contact
-/// with cloth is at most inelastic: a cloth that rebounds carries the body
-/// with it, but one caught over-stretched by a body the step took as
-/// moving on does not throw it.
-fn limit(impulse: &ContactImpulse, (v, m): (Vec3, f32), gravity_step: Vec3) -> f32 {
-    let size = impulse.linear.length();
-    if !(size > 0.0 && m.is_finite() && m > 0.0) {
-        return 1.0;
-    }
-    let along = impulse.linear / size;
-    let cloth = impulse.cloth_velocity.dot(along).max(0.0);
-    let ceiling = cloth + (-gravity_step.dot(along)).max(0.0);
-    let room = m * (ceiling - v.dot(along));
-    if room >= size {
-        1.0
-    } else {
-        (room / size).max(0.0)
     }
 }

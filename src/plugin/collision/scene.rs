@@ -313,6 +313,30 @@ impl ContactImpulse {
             weight: impulse.length(),
         };
     }
+
+    /// The share (0 … 1) of this impulse a body of velocity `velocity`
+    /// (m/s) and mass `mass` (kg) should take: all of it, unless it would
+    /// leave the body faster along the impulse than the cloth there moves
+    /// that way, plus what one step of gravity (`gravity_step`, m/s) takes
+    /// back. A contact with cloth is at most inelastic: a cloth that
+    /// rebounds carries the body with it, but one caught over-stretched by
+    /// a body the step took as moving on does not throw it. Bridges scale
+    /// the impulse by it before applying it.
+    pub fn inelastic_share(&self, velocity: Vec3, mass: f32, gravity_step: Vec3) -> f32 {
+        let size = self.linear.length();
+        if !(size > 0.0 && mass.is_finite() && mass > 0.0) {
+            return 1.0;
+        }
+        let along = self.linear / size;
+        let cloth = self.cloth_velocity.dot(along).max(0.0);
+        let ceiling = cloth + (-gravity_step.dot(along)).max(0.0);
+        let room = mass * (ceiling - velocity.dot(along));
+        if room >= size {
+            1.0
+        } else {
+            (room / size).max(0.0)
+        }
+    }
 }
 
 impl std::ops::AddAssign for ContactImpulse {

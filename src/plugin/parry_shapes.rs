@@ -1,13 +1,18 @@
-//! avian's (parry's) shapes as the cloth's collider shapes.
+//! parry's shapes (avian's and rapier's colliders) as the cloth's collider
+//! shapes.
 
 use std::sync::Arc;
 
-use avian3d::parry::shape::{SharedShape, TypedShape};
+#[cfg(feature = "avian")]
+use avian3d::parry;
 use bevy::math::{Isometry3d, Quat, Vec3};
+#[cfg(all(feature = "rapier", not(feature = "avian")))]
+use bevy_rapier3d::rapier::parry;
+use parry::shape::{SharedShape, TypedShape};
 
 use crate::plugin::collision::{ColliderShape, MeshShape, Shape, TriMesh};
 
-/// One convex or mesh piece of an avian collider, in the collider's frame.
+/// One convex or mesh piece of a physics engine's collider, in the collider's frame.
 #[derive(Clone, Debug)]
 pub(crate) struct Piece {
     /// The piece's pose in the collider's frame.
@@ -224,11 +229,11 @@ mod tests {
     fn a_compound_gives_one_piece_per_part_at_its_offset() {
         let shape = SharedShape::compound(vec![
             (
-                avian3d::parry::math::Pose::from_translation(Vec3::X),
+                parry::math::Pose::from_translation(Vec3::X),
                 SharedShape::ball(0.1),
             ),
             (
-                avian3d::parry::math::Pose::from_translation(Vec3::NEG_X),
+                parry::math::Pose::from_translation(Vec3::NEG_X),
                 SharedShape::cuboid(0.1, 0.1, 0.1),
             ),
         ]);

@@ -1,0 +1,115 @@
+//! Timing cloths against each other: the runner trait, this crate's
+//! hanging cloth, the turns, the summary and the strain the comparison
+//! benches print.
+
+#![allow(dead_code, reason = "each comparison bench uses the part it needs")]
+
+use std::time::Instant;
+
+use bevy::prelude::*;
+use bevy::time::TimeUpdateStrategy;
+use bevy_cloth::prelude::*;
+
+/// One cloth being stepped frame by frame.
+pub trait Runner {
+    /// One 1/60 s frame.
+    fn frame(&mut self);
+    /// Largest structural strain now.
+    fn strain(&self) -> f32;
+}
+
+/// The largest `ℓ/L − 1` over the links along an `n × n` grid of spacing
+/// `h` m (particles in rows or columns of `n`, at `x(p)`).
+pub fn structural_strain(n: usize, h: f32, x: impl Fn(usize) -> Vec3) -> f32 {
+    let mut worst = 0.0f32;
+    for j in 0..n {
+        for i in 0..n {
+            let p = j * n + i;
+            if i + 1 < n {
+                worst = worst.max(x(p).distance(x(p + 1)) / h - 1.0);
+            }
+            if j + 1 < n {
+                worst = worst.max(x(p).distance(x(p + n)) / h - 1.0);
+            }
+        }
+    }
+    worst
+}
+
+/// This crate, with its defaults, in a headless App.
+pub struct Ours {
+    app: App,
+    cloth: Entity,
+    n: usize,
+}
+
+impl Ours {
+    pub fn new(n: usize) -> Self {
+        let mut app = App::new();
+        app.add_plugins((MinimalPlugins, ClothPlugin::default()))
+            .insert_resource(Time::<Fixed>::from_hz(60.0))
+            .insert_resource(TimeUpdateStrategy::FixedTimesteps(1));
+        let cloth = ClothBuilder::new(n as u32, n as u32)
+            .size(1.0, 1.0)
+            .position(Vec3::new(0.0, 1.5, 0.0))
+            .rotation(Quat::from_rotation_x(std::f32::consts::FRAC_PI_2))
+            .pin_corner(GridCorner::TopLeft)
+            .pin_corner(GridCorner::TopRight)
+            .build()
+            .expect("valid");
+        let cloth = app.world_mut().spawn(cloth).id();
+        app.update();
+        Self { app, cloth, n }
+    }
+}
+
+impl Runner for Ours {
+    fn frame(&mut self) {
+        self.app.update();
+    }
+
+    fn strain(&self) -> f32 {
+        let x = &self
+            .app
+            .world()
+            .get::<ClothParticles>(self.cloth)
+            .unwrap()
+            .positions;
+        structural_strain(self.n, 1.0 / (self.n - 1) as f32, |p| x[p])
+    }
+}
+
+/// Median, least and largest of `ms`.
+pub fn summary(ms: &mut [f64]) -> (f64, f64, f64) {
+    ms.sort_by(f64::total_cmp);
+    (ms[ms.len() / 2], ms[0], ms[ms.len() - 1])
+}
+
+/// Times `frames` frames of each runner, in turns of `block` frames.
+pub fn race(runners: &mut [&mut dyn Runner], frames: usize, block: usize) -> Vec<Vec<f64>> {
+    let mut times = vec![Vec::with_capacity(frames); runners.len()];
+    while times[0].len() < frames {
+        for (r, t) in runners.iter_mut().zip(&mut times) {
+            for _ in 0..block {
+                let start = Instant::now();
+                r.frame();
+                t.push(start.elapsed().as_secs_f64() * 1e3);
+            }
+        }
+    }
+    times
+}
+
+/// The sizes named on the command line (at least 3), or `default`.
+pub fn sizes(default: &[usize]) -> Vec<usize> {
+    let sizes: Vec<usize> = std::env::args()
+        .skip(1)
+        .filter_map(|a| a.parse().ok())
+        .filter(|&n| n >= 3)
+        .collect();
+    if sizes.is_empty() {
+        default.to_vec()
+    } else {
+        sizes
+    }
+}

@@ -1,0 +1,382 @@
+//! The rapier bridge (cargo feature `rapier`, bevy_rapier3d 0.37): rapier's
+//! colliders are cloth colliders, and the cloth pushes rapier's dynamic
+//! bodies back.
+//!
+//! [`ClothRapierPlugin`], added after [`ClothPlugin`](crate::ClothPlugin)
+//! and bevy_rapier's `RapierPhysicsPlugin`:
+//!
+//! - **Colliders.** Every collider in a rapier context collides with every
+//!   cloth whose [`ContactLayers`] its `CollisionGroups` share (memberships
+//!   and filters as bit masks), with no [`ClothCollider`] beside it; the
+//!   shapes are those of the avian bridge (both engines use parry): balls,
+//!   cuboids, capsules, cylinders and cones exactly; convex hulls, triangle
+//!   meshes, height fields and triangles as triangle meshes; compounds part
+//!   by part; rounded shapes with their border radius; half-spaces as
+//!   planes. Sensors, disabled colliders, colliders of disabled bodies and
+//!   rapier's own soft bodies are ignored, and an entity that also has a
+//!   `ClothCollider` (or an avian collider, when both bridges run) collides
+//!   through that one only. A shape the cloth cannot use is skipped with
+//!   one warning per collider.
+//! - **Where and how fast.** The bridge reads rapier's own sets: a collider
+//!   is taken at the pose rapier holds for it and moved over the coming
+//!   fixed step at its body's linear and angular velocity about the centre
+//!   of mass (the body's `Velocity` component when it has one, so a
+//!   velocity the game sets this frame moves the collider this step). A body whose velocity is not finite is taken as still (one
+//!   warning).
+//! - **Friction and restitution**: the collider's coefficients combined
+//!   with [`ClothRapierPlugin::cloth_friction`] and
+//!   [`ClothRapierPlugin::cloth_restitution`] as rapier combines two
+//!   colliders' (the rule with the higher priority of the two).
+//! - **Two-way coupling.** The impulses the cloth's contacts give a dynamic
+//!   body over a step are added to its `ExternalImpulse` in
+//!   [`ClothSystems::Writeback`], linear and angular about its centre of
+//!   mass; rapier applies them at its next sync. Kinematic and fixed
+//!   bodies are one-way.
+//!
+//! bevy_rapier steps in `PostUpdate` unless told otherwise; with
+//! `RapierPhysicsPlugin::in_fixed_schedule()` it steps in `FixedUpdate`,
+//! and the plugin orders the cloth's sets before rapier's there, so the
+//! cloth's impulses enter the step that follows.
+
+use std::sync::Arc;
+
+use bevy::app::{App, FixedUpdate, Plugin};
+use bevy::ecs::schedule::ScheduleLabel;
+use bevy::log::warn;
+use bevy::math::{Isometry3d, Quat, Vec3};
+use bevy::platform::collections::{HashMap, HashSet};
+use bevy::prelude::*;
+use bevy::time::Fixed;
+use bevy_rapier3d::plugin::PhysicsSet;
+use bevy_rapier3d::prelude::{
+    ExternalImpulse, RapierConfiguration, RapierContextColliders, RapierRigidBodySet, Velocity,
+};
+use bevy_rapier3d::rapier::dynamics::{CoefficientCombineRule, RigidBody};
+use bevy_rapier3d::rapier::geometry::Collider;
+
+use crate::plugin::ClothSchedule;
+use crate::plugin::collision::{
+    ClothCollider, ClothColliderSources, ClothContactImpulses, ColliderScene, ContactLayers,
+    SceneCollider,
+};
+use crate::plugin::parry_shapes::{self as shapes, Piece};
+use crate::plugin::schedule::{ClothSystems, MainThread};
+
+/// rapier's colliders as cloth colliders, and the cloth's impulses on
+/// rapier's dynamic bodies (module docs). Add it after `ClothPlugin`.
+///
+/// ```no_run
+/// # use bevy::prelude::*;
+/// # use bevy_cloth::prelude::*;
+/// use bevy_rapier3d::prelude::*;
+/// use bevy_cloth::plugin::rapier::ClothRapierPlugin;
+///
+/// App::new()
+///     .add_plugins((DefaultPlugins, RapierPhysicsPlugin::<NoUserData>::default()))
+///     .add_plugins((ClothPlugin::default(), ClothRapierPlugin::default()))
+///     .run();
+/// ```
+#[derive(Clone, Debug)]
+#[non_exhaustive]
+pub struct ClothRapierPlugin {
+    /// The cloth's side of every contact's friction coefficient μ
+    /// (dimensionless).
+    pub cloth_friction: f32,
+    /// How [`Self::cloth_friction`] combines with a collider's.
+    pub cloth_friction_rule: CoefficientCombineRule,
+    /// The cloth's side of every contact's restitution (0 … 1).
+    pub cloth_restitution: f32,
+    /// How [`Self::cloth_restitution`] combines with a collider's.
+    pub cloth_restitution_rule: CoefficientCombineRule,
+    /// Whether the cloth pushes dynamic bodies back (on by default).
+    pub two_way: bool,
+}
+
+impl Default for ClothRapierPlugin {
+    fn default() -> Self {
+        Self {
+            cloth_friction: 0.4,
+            cloth_friction_rule: CoefficientCombineRule::Average,
+            cloth_restitution: 0.0,
+            cloth_restitution_rule: CoefficientCombineRule::Average,
+            two_way: true,
+        }
+    }
+}
+
+impl ClothRapierPlugin {
+    /// With the cloth's friction coefficient μ (rapier's default rule, the
+    /// average).
+    pub fn with_cloth_friction(mut self, friction: f32) -> Self {
+        self.cloth_friction = friction;
+        self
+    }
+
+    /// With or without the cloth's impulses on dynamic bodies.
+    pub fn with_two_way(mut self, on: bool) -> Self {
+        self.two_way = on;
+        self
+    }
+}
+
+/// The settings of [`ClothRapierPlugin`], as a resource.
+#[derive(Resource, Clone, Debug)]
+pub struct ClothRapierSettings(pub ClothRapierPlugin);
+
+impl Plugin for ClothRapierPlugin {
+    fn build(&self, app: &mut App) {
+        let schedule = app
+            .world()
+            .get_resource::<ClothSchedule>()
+            .map_or(FixedUpdate.intern(), |s| s.0);
+        app.insert_resource(ClothRapierSettings(self.clone()))
+            .configure_sets(
+                schedule,
+                ClothSystems::Writeback.before(PhysicsSet::SyncBackend),
+            )
+            .add_systems(
+                schedule,
+                (
+                    feed_colliders
+                        .run_if(any_with_component::<RapierContextColliders>)
+                        .in_set(ClothColliderSources),
+                    push_bodies
+                        .run_if(|i: Res<ClothContactImpulses>| !i.is_empty())
+                        .in_set(ClothSystems::Writeback),
+                ),
+            );
+    }
+}
+
+/// A rapier collider's pieces, keyed by the shape they came from.
+struct Cached {
+    /// The address of the collider's shape when converted.
+    shape: usize,
+    pieces: Result<Arc<[Piece]>, String>,
+    /// Whether the collider was seen in the latest pass.
+    seen: bool,
+}
+
+/// The address of a collider's shape: a new shape is a new allocation.
+fn shape_key(collider: &Collider) -> usize {
+    Arc::as_ptr(&collider.shared_shape().0) as *const () as usize
+}
+
+/// A body's motion over the coming step: its centre of mass (world, m) and
+/// linear (m/s) and angular (rad/s) velocity.
+#[derive(Clone, Copy, Debug, Default)]
+struct Motion {
+    centre: Vec3,
+    linear: Vec3,
+    angular: Vec3,
+}
+
+impl Motion {
+    /// A body's motion: its `Velocity` component when it has one (the
+    /// velocity rapier takes into its coming step, written by the game this
+    /// frame), else rapier's own.
+    fn of(body: &RigidBody, velocity: Option<&Velocity>) -> Self {
+        let (linear, angular) =
+            velocity.map_or((body.linvel(), body.angvel()), |v| (v.linear, v.angular));
+        Self {
+            centre: body.center_of_mass(),
+            linear,
+            angular,
+        }
+    }
+
+    fn is_finite(&self) -> bool {
+        self.centre.is_finite() && self.linear.is_finite() && self.angular.is_finite()
+    }
+
+    /// `pose` moved on by `dt` s.
+    fn advance(&self, pose: Isometry3d, dt: f32) -> Isometry3d {
+        let turn = Quat::from_scaled_axis(self.angular * dt);
+        let at = Vec3::from(pose.translation);
+        Isometry3d::new(
+            self.centre + turn * (at - self.centre) + self.linear * dt,
+            (turn * pose.rotation).normalize(),
+        )
+    }
+}
+
+/// The entities whose colliders the cloth already meets another way.
+#[cfg(feature = "avian")]
+type Elsewhere = Or<(With<ClothCollider>, With<avian3d::prelude::Collider>)>;
+#[cfg(not(feature = "avian"))]
+type Elsewhere = With<ClothCollider>;
+
+/// The rapier source, in [`ClothColliderSources`]: every usable collider of
+/// every rapier context, over the coming step.
+#[expect(
+    clippy::too_many_arguments,
+    reason = "a Bevy system: each parameter is one resource or query"
+)]
+fn feed_colliders(
+    _main: MainThread,
+    time: Res<Time<Fixed>>,
+    settings: Res<ClothRapierSettings>,
+    contexts: Query<(&RapierContextColliders, &RapierRigidBodySet)>,
+    elsewhere: Query<(), Elsewhere>,
+    velocities: Query<&Velocity>,
+    mut scene: ResMut<ColliderScene>,
+    mut cache: Local<HashMap<Entity, Cached>>,
+    mut warned: Local<HashSet<Entity>>,
+) {
+    let dt = time.timestep().as_secs_f32();
+    let settings = &settings.0;
+    for cached in cache.values_mut() {
+        cached.seen = false;
+    }
+    for (colliders, bodies) in &contexts {
+        for (_, collider) in colliders.colliders.iter() {
+            if !collider.is_enabled() || collider.is_sensor() {
+                continue;
+            }
+            let entity = RapierContextColliders::entity_from_collider(collider);
+            if elsewhere.contains(entity) {
+                continue;
+            }
+            let body = collider.parent().and_then(|h| bodies.bodies.get(h));
+            if body.is_some_and(|b| !b.is_enabled() || b.soft_body().is_some()) {
+                continue;
+            }
+            // The pieces: converted once, again when the shape is replaced.
+            let key = shape_key(collider);
+            let cached = cache.entry(entity).or_insert_with(|| Cached {
+                shape: usize::MAX,
+                pieces: Err(String::new()),
+                seen: false,
+            });
+            if cached.shape != key {
+                cached.shape = key;
+                cached.pieces = shapes::pieces(collider.shared_shape()).map(Arc::from);
+            }
+            cached.seen = true;
+            let pieces = match &cached.pieces {
+                Ok(pieces) => pieces.clone(),
+                Err(kind) => {
+                    if warned.insert(entity) {
+                        warn!(
+                            "rapier collider {entity} is ignored by cloth: its shape ({kind}) is not supported"
+                        );
+                    }
+                    continue;
+                }
+            };
+            let at = collider.position();
+            let pose = Isometry3d::new(at.translation, at.rotation);
+            let mut motion = Motion::default();
+            let mut dynamic = false;
+            let mut mass = f32::INFINITY;
+            if let Some(body) = body
+                && !body.is_fixed()
+            {
+                dynamic = body.is_dynamic();
+                if dynamic && settings.two_way && body.mass() > 0.0 {
+                    mass = body.mass();
+                }
+                let velocity = Entity::try_from_bits(body.user_data as u64)
+                    .and_then(|e| velocities.get(e).ok());
+                motion = Motion::of(body, velocity);
+                if !motion.is_finite() {
+                    if warned.insert(entity) {
+                        warn!(
+                            "rapier collider {entity} moves with a non-finite velocity: cloth takes it as still"
+                        );
+                    }
+                    motion = Motion::default();
+                }
+            }
+            let end = motion.advance(pose, dt);
+            let friction = CoefficientCombineRule::combine(
+                collider.friction(),
+                settings.cloth_friction,
+                collider.friction_combine_rule(),
+                settings.cloth_friction_rule,
+            );
+            let restitution = CoefficientCombineRule::combine(
+                collider.restitution(),
+                settings.cloth_restitution,
+                collider.restitution_combine_rule(),
+                settings.cloth_restitution_rule,
+            )
+            .clamp(0.0, 1.0);
+            let groups = collider.collision_groups();
+            let layers = ContactLayers::new(groups.memberships.bits(), groups.filter.bits());
+            for piece in pieces.iter() {
+                let scene_collider = SceneCollider::new(
+                    entity,
+                    piece.shape.clone(),
+                    pose * piece.offset,
+                    end * piece.offset,
+                )
+                .with_friction(friction)
+                .with_restitution(restitution)
+                .with_margin(piece.margin)
+                .with_layers(layers)
+                .with_feedback(dynamic && settings.two_way)
+                .with_mass(mass);
+                if let Err(error) = scene.push(scene_collider)
+                    && warned.insert(entity)
+                {
+                    warn!("rapier collider {entity} is ignored by cloth: {error}");
+                }
+            }
+        }
+    }
+    cache.retain(|_, cached| cached.seen);
+}
+
+/// [`ClothSystems::Writeback`]: the cloth's impulses on each dynamic body,
+/// added to its `ExternalImpulse`, linear and angular about its centre of
+/// mass.
+fn push_bodies(
+    _main: MainThread,
+    mut commands: Commands,
+    time: Res<Time<Fixed>>,
+    impulses: Res<ClothContactImpulses>,
+    contexts: Query<(
+        &RapierContextColliders,
+        &RapierRigidBodySet,
+        Option<&RapierConfiguration>,
+    )>,
+    mut pending: Query<&mut ExternalImpulse>,
+    mut fresh: Local<HashMap<Entity, ExternalImpulse>>,
+) {
+    let dt = time.timestep().as_secs_f32();
+    for (entity, impulse) in impulses.iter() {
+        if !(impulse.linear.is_finite() && impulse.angular.is_finite()) {
+            continue;
+        }
+        let Some((body_entity, body, gravity)) = contexts.iter().find_map(|(c, b, config)| {
+            let body_entity = c.collider_parent(b, entity)?;
+            let body = b.bodies.get(*b.entity2body().get(&body_entity)?)?;
+            Some((body_entity, body, config.map_or(Vec3::ZERO, |c| c.gravity)))
+        }) else {
+            continue;
+        };
+        if !body.is_dynamic() || !(body.mass() > 0.0) {
+            continue;
+        }
+        let mass = body.mass();
+        let queued = pending
+            .get(body_entity)
+            .ok()
+            .or(fresh.get(&body_entity))
+            .map_or(Vec3::ZERO, |e| e.impulse);
+        let velocity = body.linvel() + queued / mass;
+        let scale = impulse.inelastic_share(velocity, mass, gravity * dt);
+        let add = ExternalImpulse {
+            impulse: scale * impulse.linear,
+            torque_impulse: scale * impulse.angular_about(body.center_of_mass()),
+        };
+        match pending.get_mut(body_entity) {
+            Ok(mut queued) => *queued += add,
+            Err(_) => *fresh.entry(body_entity).or_default() += add,
+        }
+    }
+    for (body, impulse) in fresh.drain() {
+        commands.entity(body).try_insert(impulse);
+    }
+}
