@@ -498,28 +498,34 @@ fn hammock(material: ClothMaterial) -> ClothBundle {
     cloth
 }
 
-#[test]
-#[ignore = "a 5 kg ball strains the pocket of a 0.3 kg hammock past 5 % and the cloth lets it through (docs/architecture.md, two-way coupling)"]
-fn a_heavy_ball_comes_to_rest_in_a_light_hammock() {
+/// How a ball of `mass` kg and `radius` m dropped into the 0.3 kg cotton
+/// hammock ends: its height (m), its fastest speed over the last 0.5 s of
+/// 3 s (m/s), the worst strain and the deepest particle inside it (m).
+fn settle_in_hammock(mass: f32, radius: f32) -> (f32, f32, f32, f32) {
     let mut app = app();
     let cloth = app.world_mut().spawn(hammock(ClothMaterial::COTTON)).id();
     run(&mut app, 60, cloth);
-    let radius = 0.12;
-    let (ball, track, worst) = drop_ball(&mut app, cloth, (5.0, radius, 1.1), 180);
+    let (ball, track, worst) = drop_ball(&mut app, cloth, (mass, radius, 1.1), 180);
     let late = track[150..]
         .iter()
         .map(|(_, v)| v.length())
         .fold(0.0, f32::max);
     let centre = app.world().get::<Position>(ball).unwrap().0;
     let deepest = penetration(&positions(&app, cloth), centre, radius);
+    (centre.y, late, worst, deepest)
+}
+
+#[test]
+#[ignore = "a ball strains the pocket of a 0.3 kg hammock far past 5 % and jitters; a 5 kg one is let through (docs/architecture.md, two-way coupling)"]
+fn a_heavy_ball_comes_to_rest_in_a_light_hammock() {
+    let (y, late, worst, deepest) = settle_in_hammock(5.0, 0.12);
     eprintln!(
-        "hammock: ball at {:.3} m, speed over the last 0.5 s ≤ {:.2} cm/s, worst strain {:.2} %, deepest {:.1} mm",
-        centre.y,
+        "hammock: ball at {y:.3} m, speed over the last 0.5 s ≤ {:.2} cm/s, worst strain {:.2} %, deepest {:.1} mm",
         100.0 * late,
         100.0 * worst,
         1e3 * deepest
     );
-    assert!(centre.y > 0.3, "the hammock holds it: {}", centre.y);
+    assert!(y > 0.3, "the hammock holds it: {y}");
     assert!(late < 0.01, "ball still moving at {late} m/s");
     assert!(worst <= 0.05, "strain {worst}");
     assert!(deepest <= 0.0, "a particle {deepest} m inside the ball");

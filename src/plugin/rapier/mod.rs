@@ -356,10 +356,10 @@ fn push_bodies(
         }) else {
             continue;
         };
-        if !body.is_dynamic() || !(body.mass() > 0.0) {
+        let mass = body.mass();
+        if !body.is_dynamic() || mass.is_nan() || mass <= 0.0 {
             continue;
         }
-        let mass = body.mass();
         let queued = pending
             .get(body_entity)
             .ok()
