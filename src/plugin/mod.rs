@@ -12,6 +12,8 @@
 pub mod anchor;
 #[cfg(feature = "avian")]
 pub mod avian;
+#[cfg(any(feature = "avian", feature = "rapier"))]
+mod body_motion;
 pub mod builder;
 pub mod collision;
 pub mod components;

@@ -48,12 +48,13 @@ use bevy::app::{App, FixedUpdate, Plugin};
 use bevy::ecs::query::QueryData;
 use bevy::ecs::schedule::ScheduleLabel;
 use bevy::log::warn;
-use bevy::math::{Isometry3d, Quat, Vec3};
+use bevy::math::{Isometry3d, Vec3};
 use bevy::platform::collections::HashSet;
 use bevy::prelude::*;
 use bevy::time::Fixed;
 
 use crate::plugin::ClothSchedule;
+use crate::plugin::body_motion::Motion;
 use crate::plugin::collision::{
     ClothCollider, ClothColliderSources, ClothContactImpulses, ColliderScene, ContactLayers,
     SceneCollider,
@@ -200,27 +201,6 @@ struct BodyData {
     disabled: Has<RigidBodyDisabled>,
 }
 
-/// A body's motion over the coming step: its centre of mass (world, m) and
-/// linear (m/s) and angular (rad/s) velocity.
-#[derive(Clone, Copy, Debug, Default)]
-struct Motion {
-    centre: Vec3,
-    linear: Vec3,
-    angular: Vec3,
-}
-
-impl Motion {
-    /// `pose` moved on by `dt` s.
-    fn advance(&self, pose: Isometry3d, dt: f32) -> Isometry3d {
-        let turn = Quat::from_scaled_axis(self.angular * dt);
-        let at = Vec3::from(pose.translation);
-        Isometry3d::new(
-            self.centre + turn * (at - self.centre) + self.linear * dt,
-            (turn * pose.rotation).normalize(),
-        )
-    }
-}
-
 /// The avian colliders the cloth meets: not sensors, not disabled, and not
 /// already a [`ClothCollider`].
 type Usable = (
@@ -307,10 +287,7 @@ fn feed_colliders(
                 linear: b.velocity.map_or(Vec3::ZERO, |v| v.0),
                 angular: b.spin.map_or(Vec3::ZERO, |w| w.0),
             };
-            if !(motion.linear.is_finite()
-                && motion.angular.is_finite()
-                && motion.centre.is_finite())
-            {
+            if !motion.is_finite() {
                 if warned.insert(body_entity) {
                     warn!(
                         "avian body {body_entity} has a non-finite velocity: cloth takes it as still"

@@ -43,7 +43,7 @@ use std::sync::Arc;
 use bevy::app::{App, FixedUpdate, Plugin};
 use bevy::ecs::schedule::ScheduleLabel;
 use bevy::log::warn;
-use bevy::math::{Isometry3d, Quat, Vec3};
+use bevy::math::{Isometry3d, Vec3};
 use bevy::platform::collections::{HashMap, HashSet};
 use bevy::prelude::*;
 use bevy::time::Fixed;
@@ -55,6 +55,7 @@ use bevy_rapier3d::rapier::dynamics::{CoefficientCombineRule, RigidBody};
 use bevy_rapier3d::rapier::geometry::Collider;
 
 use crate::plugin::ClothSchedule;
+use crate::plugin::body_motion::Motion;
 use crate::plugin::collision::{
     ClothCollider, ClothColliderSources, ClothContactImpulses, ColliderScene, ContactLayers,
     SceneCollider,
@@ -162,41 +163,16 @@ fn shape_key(collider: &Collider) -> usize {
     Arc::as_ptr(&collider.shared_shape().0) as *const () as usize
 }
 
-/// A body's motion over the coming step: its centre of mass (world, m) and
-/// linear (m/s) and angular (rad/s) velocity.
-#[derive(Clone, Copy, Debug, Default)]
-struct Motion {
-    centre: Vec3,
-    linear: Vec3,
-    angular: Vec3,
-}
-
-impl Motion {
-    /// A body's motion: its `Velocity` component when it has one (the
-    /// velocity rapier takes into its coming step, written by the game this
-    /// frame), else rapier's own.
-    fn of(body: &RigidBody, velocity: Option<&Velocity>) -> Self {
-        let (linear, angular) =
-            velocity.map_or((body.linvel(), body.angvel()), |v| (v.linear, v.angular));
-        Self {
-            centre: body.center_of_mass(),
-            linear,
-            angular,
-        }
-    }
-
-    fn is_finite(&self) -> bool {
-        self.centre.is_finite() && self.linear.is_finite() && self.angular.is_finite()
-    }
-
-    /// `pose` moved on by `dt` s.
-    fn advance(&self, pose: Isometry3d, dt: f32) -> Isometry3d {
-        let turn = Quat::from_scaled_axis(self.angular * dt);
-        let at = Vec3::from(pose.translation);
-        Isometry3d::new(
-            self.centre + turn * (at - self.centre) + self.linear * dt,
-            (turn * pose.rotation).normalize(),
-        )
+/// A rapier body's motion: its `Velocity` component when it has one (the
+/// velocity rapier takes into its coming step, written by the game this
+/// frame), else rapier's own.
+fn motion_of(body: &RigidBody, velocity: Option<&Velocity>) -> Motion {
+    let (linear, angular) =
+        velocity.map_or((body.linvel(), body.angvel()), |v| (v.linear, v.angular));
+    Motion {
+        centre: body.center_of_mass(),
+        linear,
+        angular,
     }
 }
 
@@ -278,7 +254,7 @@ fn feed_colliders(
                 }
                 let velocity = Entity::try_from_bits(body.user_data as u64)
                     .and_then(|e| velocities.get(e).ok());
-                motion = Motion::of(body, velocity);
+                motion = motion_of(body, velocity);
                 if !motion.is_finite() {
                     if warned.insert(entity) {
                         warn!(
