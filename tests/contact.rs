@@ -539,3 +539,92 @@ fn a_sheet_lifted_off_the_floor_lets_go_of_it() {
         }
     }
 }
+
+/// The worst strain (dimensionless) of a 1.4 m × 0.6 m cotton hammock hung
+/// slack between posts 1.2 m apart while a 12 cm ball strikes its middle
+/// at `speed` m/s, pushes it 5 cm below where it hangs and stays there for
+/// 1 s, and the deepest any particle gets into the ball (m).
+fn strike(speed: f32) -> (f32, f32) {
+    let mut app = app();
+    let mut cloth = ClothBuilder::new(29, 13)
+        .size(1.4, 0.6)
+        .position(Vec3::new(0.0, 1.0, 0.0))
+        .pin_edge(GridEdge::Left)
+        .pin_edge(GridEdge::Right)
+        .build()
+        .unwrap();
+    // Arc length 1.4 m over a chord of 1.2 m: half-angle φ with
+    // sin φ / φ = 6/7, radius 0.7 / φ; the middle sags 0.31 m.
+    let phi = 0.9474f32;
+    let arc = 0.7 / phi;
+    for p in &mut cloth.particles.positions {
+        let a = p.x / arc;
+        *p = Vec3::new(arc * a.sin(), 1.0 - arc * (a.cos() - phi.cos()), p.z);
+    }
+    let cloth = app.world_mut().spawn(cloth).id();
+    for _ in 0..60 {
+        app.update();
+    }
+    let lowest = particles(&app, cloth)
+        .positions
+        .iter()
+        .map(|p| p.y)
+        .fold(f32::MAX, f32::min);
+    let radius = 0.12;
+    let top = lowest + radius + 0.1;
+    let ball = app
+        .world_mut()
+        .spawn((
+            ClothCollider::sphere(radius),
+            Transform::from_xyz(0.0, top, 0.0),
+        ))
+        .id();
+    let (mut worst, mut deepest) = (0.0f32, f32::MIN);
+    let mut y = top;
+    for k in 0..90 {
+        y = (y - speed / 60.0).max(top - 0.15);
+        app.world_mut()
+            .get_mut::<Transform>(ball)
+            .unwrap()
+            .translation
+            .y = y;
+        app.update();
+        let s = app.world().get::<ClothStats>(cloth).unwrap();
+        assert!(s.finite, "non-finite at frame {k}");
+        worst = worst.max(s.max_strain);
+        if std::env::var("NOASSERT").is_ok() && k < 40 {
+            eprintln!(
+                "  {speed} {k}: y {y:.3} strain {:.1} % sub {} it {}",
+                100.0 * s.max_strain,
+                s.substeps,
+                s.solver_iterations
+            );
+        }
+        let centre = Vec3::new(0.0, y, 0.0);
+        deepest = particles(&app, cloth)
+            .positions
+            .iter()
+            .map(|p| radius - p.distance(centre))
+            .fold(deepest, f32::max);
+    }
+    (worst, deepest)
+}
+
+#[test]
+fn a_ball_striking_a_hammock_does_not_overstretch_it() {
+    // Pushed 5 cm below where it hangs, the hammock's middle row is about
+    // as long as at rest, whatever the speed. The solve sees the particles
+    // the ball reaches within the step (not only those it touches at the
+    // start), and the step is split while the ball closes in faster than a
+    // quarter link per substep (`impact_substeps`).
+    for speed in [0.5, 2.5, 5.0] {
+        let (worst, deepest) = strike(speed);
+        eprintln!(
+            "{speed} m/s: worst strain {:.1} %, deepest {:.1} mm",
+            100.0 * worst,
+            1e3 * deepest
+        );
+        assert!(worst < 0.1, "{speed} m/s: strain {worst}");
+        assert!(deepest < 0.0, "{speed} m/s: {deepest} m inside the ball");
+    }
+}

@@ -32,7 +32,10 @@ pub fn predict_contacts(
             continue;
         }
         let local = to_local.transform_point3(xp);
-        let reach = thickness + TOUCH + vp.length() * dt;
+        // The surface at the particle moves too: a collider striking a
+        // resting cloth reaches it within the step.
+        let velocity = (end.transform_point3(local) - xp) / dt;
+        let reach = thickness + TOUCH + (vp.length() + velocity.length()) * dt;
         let Some((distance, normal)) = (match collider.geometry {
             Geometry::Shape(ref shape) => Some(shape.distance(local)),
             Geometry::Mesh(mesh) => mesh_distance(mesh, local, reach),
@@ -47,7 +50,6 @@ pub fn predict_contacts(
         if normal == Vec3::ZERO {
             continue;
         }
-        let velocity = (end.transform_point3(local) - xp) / dt;
         let approach = gap + dt * (vp - velocity).dot(normal);
         if gap <= TOUCH || approach < 0.0 {
             out.push(SolveContact {
