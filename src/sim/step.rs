@@ -277,7 +277,7 @@ pub fn impact_substeps(
         .fold(0.0f32, f32::max);
     let reach = approach * dt;
     // Nothing closes in by a millimetre: no link turns far.
-    if !(reach > 1e-3) {
+    if reach.is_nan() || reach <= 1e-3 {
         return 1;
     }
     let shortest = connections
