@@ -256,8 +256,8 @@ pub const MAX_IMPACT_SUBSTEPS: u32 = 8;
 /// striking a sheet at 2.5 m/s moves the particles under it 4 cm in one
 /// 1/60 s step, turning the links beside them by as much, and a link turned
 /// by an angle `θ` within a linearised step comes out stretched by about
-/// `1/cos θ − 1` (48 % there). In substeps of a quarter link each, the
-/// links turn a little at a time and the cloth follows.
+/// `1/cos θ − 1`. In substeps of a quarter link each, the links turn a
+/// little at a time and the cloth follows.
 pub fn impact_substeps(
     contacts: &[SolveContact],
     v: &[Vec3],
