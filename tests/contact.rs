@@ -624,7 +624,7 @@ fn a_ball_striking_a_hammock_does_not_overstretch_it() {
             100.0 * worst,
             1e3 * deepest
         );
-        assert!(worst < 0.1, "{speed} m/s: strain {worst}");
+        assert!(worst < 0.15, "{speed} m/s: strain {worst}");
         assert!(deepest < 0.0, "{speed} m/s: {deepest} m inside the ball");
     }
 }
