@@ -2,6 +2,8 @@
 //! layers and sensors are respected, bad input is skipped, and dynamic
 //! bodies feel the cloth (hammock, bounce, momentum).
 
+mod common;
+
 use std::f32::consts::FRAC_PI_2;
 
 use avian3d::prelude::*;
@@ -474,28 +476,9 @@ fn penetration(x: &[Vec3], centre: Vec3, radius: f32) -> f32 {
         .fold(f32::MIN, f32::max)
 }
 
-/// A 0.3 kg hammock, 1.4 m × 0.6 m, hung slack between two posts 1.2 m
-/// apart at y = 1 m (its long sides sag 0.31 m in a circular arc), pinned
-/// along its short edges.
+/// A 0.3 kg hammock ([`common::hammock`]) of `material`.
 fn hammock(material: ClothMaterial) -> ClothBundle {
-    let mut cloth = ClothBuilder::new(29, 13)
-        .size(1.4, 0.6)
-        .total_mass(0.3)
-        .material(material)
-        .position(Vec3::new(0.0, 1.0, 0.0))
-        .pin_edge(GridEdge::Left)
-        .pin_edge(GridEdge::Right)
-        .build()
-        .unwrap();
-    // Arc length 1.4 m over a chord of 1.2 m: half-angle φ with
-    // sin φ / φ = 6/7, radius 0.7 / φ.
-    let phi = 0.9474f32;
-    let radius = 0.7 / phi;
-    for p in &mut cloth.particles.positions {
-        let a = p.x / radius;
-        *p = Vec3::new(radius * a.sin(), 1.0 - radius * (a.cos() - phi.cos()), p.z);
-    }
-    cloth
+    common::hammock(|b| b.total_mass(0.3).material(material))
 }
 
 /// How a ball of `mass` kg and `radius` m dropped into the 0.3 kg cotton

@@ -546,22 +546,7 @@ fn a_sheet_lifted_off_the_floor_lets_go_of_it() {
 /// 1 s, and the deepest any particle gets into the ball (m).
 fn strike(speed: f32) -> (f32, f32) {
     let mut app = app();
-    let mut cloth = ClothBuilder::new(29, 13)
-        .size(1.4, 0.6)
-        .position(Vec3::new(0.0, 1.0, 0.0))
-        .pin_edge(GridEdge::Left)
-        .pin_edge(GridEdge::Right)
-        .build()
-        .unwrap();
-    // Arc length 1.4 m over a chord of 1.2 m: half-angle φ with
-    // sin φ / φ = 6/7, radius 0.7 / φ; the middle sags 0.31 m.
-    let phi = 0.9474f32;
-    let arc = 0.7 / phi;
-    for p in &mut cloth.particles.positions {
-        let a = p.x / arc;
-        *p = Vec3::new(arc * a.sin(), 1.0 - arc * (a.cos() - phi.cos()), p.z);
-    }
-    let cloth = app.world_mut().spawn(cloth).id();
+    let cloth = app.world_mut().spawn(common::hammock(|b| b)).id();
     for _ in 0..60 {
         app.update();
     }

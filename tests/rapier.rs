@@ -3,6 +3,8 @@
 //! respected, bad input is skipped, kinematic bodies carry the cloth, and
 //! dynamic bodies feel it (bounce, momentum).
 
+mod common;
+
 use std::f32::consts::FRAC_PI_2;
 
 use bevy::prelude::*;
@@ -579,28 +581,9 @@ fn a_ball_thrown_into_a_free_curtain_gives_it_the_momentum_it_loses() {
     );
 }
 
-/// A 0.3 kg hammock, 1.4 m × 0.6 m, hung slack between two posts 1.2 m
-/// apart at y = 1 m (its long sides sag 0.31 m in a circular arc), pinned
-/// along its short edges.
+/// A 0.3 kg hammock ([`common::hammock`]) of `material`.
 fn hammock(material: ClothMaterial) -> ClothBundle {
-    let mut cloth = ClothBuilder::new(29, 13)
-        .size(1.4, 0.6)
-        .total_mass(0.3)
-        .material(material)
-        .position(Vec3::new(0.0, 1.0, 0.0))
-        .pin_edge(GridEdge::Left)
-        .pin_edge(GridEdge::Right)
-        .build()
-        .unwrap();
-    // Arc length 1.4 m over a chord of 1.2 m: half-angle φ with
-    // sin φ / φ = 6/7, radius 0.7 / φ.
-    let phi = 0.9474f32;
-    let radius = 0.7 / phi;
-    for p in &mut cloth.particles.positions {
-        let a = p.x / radius;
-        *p = Vec3::new(radius * a.sin(), 1.0 - radius * (a.cos() - phi.cos()), p.z);
-    }
-    cloth
+    common::hammock(|b| b.total_mass(0.3).material(material))
 }
 
 #[test]

@@ -187,3 +187,25 @@ pub fn app_with_meshes() -> App {
     app.update();
     app
 }
+
+/// A 1.4 m × 0.6 m hammock (29 × 13 particles, 5 cm apart) hung slack
+/// between two posts 1.2 m apart at y = 1 m, pinned along its short edges:
+/// its long sides sag 0.31 m in a circular arc. `dress` sets what it is
+/// made of (mass, material).
+pub fn hammock(dress: impl FnOnce(ClothBuilder) -> ClothBuilder) -> ClothBundle {
+    let builder = ClothBuilder::new(29, 13)
+        .size(1.4, 0.6)
+        .position(Vec3::new(0.0, 1.0, 0.0))
+        .pin_edge(GridEdge::Left)
+        .pin_edge(GridEdge::Right);
+    let mut cloth = dress(builder).build().unwrap();
+    // Arc length 1.4 m over a chord of 1.2 m: half-angle φ with
+    // sin φ / φ = 6/7, radius 0.7 / φ.
+    let phi = 0.9474f32;
+    let radius = 0.7 / phi;
+    for p in &mut cloth.particles.positions {
+        let a = p.x / radius;
+        *p = Vec3::new(radius * a.sin(), 1.0 - radius * (a.cos() - phi.cos()), p.z);
+    }
+    cloth
+}
