@@ -94,6 +94,22 @@ pub enum ClothError {
     /// [0, π), zero length, or missing the cloth).
     #[error("invalid crease: {0}")]
     InvalidCrease(&'static str),
+    /// Sleep thresholds must be finite and non-negative, the wake speed at
+    /// least the rest speed (m/s), the margin finite (m), and at least one
+    /// calm step.
+    #[error(
+        "invalid sleep settings: rest speed {rest_speed} m/s, wake speed {wake_speed} m/s, {rest_steps} calm steps, margin {margin} m"
+    )]
+    InvalidSleep {
+        /// The rest speed given, m/s.
+        rest_speed: f32,
+        /// The wake speed given, m/s.
+        wake_speed: f32,
+        /// The calm steps given.
+        rest_steps: u32,
+        /// The margin given, m.
+        margin: f32,
+    },
     /// Gravity (m/s²) must be finite.
     #[error("gravity must be finite, got {0}")]
     InvalidGravity(Vec3),

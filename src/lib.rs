@@ -101,7 +101,7 @@ pub use crate::sim::grid::{GridCorner, GridEdge};
 pub use crate::sim::material::Fabric;
 pub use crate::sim::settings::{
     ChoiKoParams, ClothModel, ImplicitParams, Integrator, LanderParams, Parallelism, SimSettings,
-    SlackStiffness, SpringParams, Type2Jacobian,
+    SlackStiffness, SleepSettings, SpringParams, Type2Jacobian,
 };
 
 /// Every type a game names: `use bevy_cloth::prelude::*;`.
@@ -126,6 +126,7 @@ pub mod prelude {
     pub use crate::plugin::picking::{ClothPicking, ClothPointer};
     pub use crate::plugin::schedule::ClothPause;
     pub use crate::plugin::skin::{ATTRIBUTE_FREEDOM, ClothSkin};
+    pub use crate::plugin::sleep::{ClothSleep, WakeCloth};
     pub use crate::plugin::tether::ClothTethers;
     pub use crate::plugin::wind::ClothWind;
     pub use crate::sim::collision::TriMesh;
@@ -137,7 +138,7 @@ pub mod prelude {
         Anchor, Cloth, ClothAnchors, ClothBuilder, ClothBundle, ClothConnections, ClothDefaults,
         ClothError, ClothForces, ClothMaterial, ClothModel, ClothParticles, ClothPlugin,
         ClothSettings, ClothStats, ClothSystems, Fabric, GridCorner, GridEdge, ImplicitParams,
-        Integrator, SimSettings,
+        Integrator, SimSettings, SleepSettings,
     };
 }
 

@@ -319,3 +319,39 @@ fn a_skin_comes_from_a_skinned_mesh_and_its_bind_poses() {
     let missing = ClothSkin::from_skinned_mesh(&mesh, &layout, (&skinned, &empty), name, 0.1);
     assert!(matches!(missing, Err(ClothError::UnsupportedMesh(_))));
 }
+
+#[test]
+fn a_worn_cloth_sleeps_while_its_skeleton_stands_and_wakes_when_it_moves() {
+    let mut app = app();
+    let (root, _, e) = wear(&mut app, 0.1);
+    let asleep = |app: &App| app.world().get::<ClothSleep>(e).unwrap().is_asleep();
+    let mut slept = false;
+    for _ in 0..600 {
+        app.update();
+        if asleep(&app) {
+            slept = true;
+            break;
+        }
+    }
+    assert!(slept, "{:?}", app.world().get::<ClothStats>(e));
+    let before = particles(&app, e).positions.clone();
+    for _ in 0..30 {
+        app.update();
+    }
+    assert!(asleep(&app));
+    assert_eq!(particles(&app, e).positions, before);
+    app.world_mut()
+        .get_mut::<Transform>(root)
+        .unwrap()
+        .translation
+        .x += 0.05;
+    app.update();
+    assert!(!asleep(&app), "the skeleton moved");
+    // Its kinematic top row follows the skeleton in that same step.
+    let top = particles(&app, e).positions[2];
+    assert!(
+        (top.x - (before[2].x + 0.05)).abs() < 1e-4,
+        "{top} {}",
+        before[2]
+    );
+}

@@ -6,6 +6,7 @@ use bevy::time::Fixed;
 
 use crate::plugin::components::ClothParticles;
 use crate::plugin::pose::WorldPose;
+use crate::plugin::sleep::ClothSleep;
 
 /// One particle tied to another entity's transform.
 #[derive(Clone, Copy, Debug, PartialEq, Reflect)]
@@ -103,10 +104,15 @@ pub(crate) fn follow_anchors(
     _main: crate::plugin::schedule::MainThread,
     time: Res<Time<Fixed>>,
     targets: Query<WorldPose>,
-    mut cloths: Query<(&mut ClothAnchors, &mut ClothParticles)>,
+    mut cloths: Query<(&mut ClothAnchors, &mut ClothParticles, &ClothSleep)>,
 ) {
     let dt = time.timestep().as_secs_f32();
-    for (mut anchors, mut particles) in &mut cloths {
+    for (mut anchors, mut particles, sleep) in &mut cloths {
+        // A sleeping cloth whose anchors are where it left them is left
+        // alone (and asleep).
+        if sleep.is_asleep() && anchors_still(&anchors, &particles, &targets) {
+            continue;
+        }
         let ClothAnchors(anchors, detached) = &mut *anchors;
         for p in detached.drain(..) {
             stop_if_pinned(&mut particles, p);
@@ -142,14 +148,38 @@ pub(crate) fn follow_anchors(
     }
 }
 
+/// Whether every anchor of a cloth has its target and sits on it, with
+/// nothing detached: the anchors would not move the cloth.
+fn anchors_still(
+    anchors: &ClothAnchors,
+    particles: &ClothParticles,
+    targets: &Query<WorldPose>,
+) -> bool {
+    anchors.1.is_empty()
+        && anchors.0.iter().all(|anchor| {
+            let p = anchor.particle as usize;
+            let target = targets.get(anchor.target).ok().and_then(|t| t.affine());
+            match (target, anchor.offset, particles.positions.get(p)) {
+                (Some(target), Some(offset), Some(&x)) => target.transform_point3(offset) == x,
+                // Out of range: the anchor does nothing.
+                (_, _, None) => true,
+                // Its target is gone: it only stops its pin.
+                (None, _, Some(_)) => {
+                    !particles.is_pinned(p) || particles.velocities[p] == Vec3::ZERO
+                }
+                (Some(_), None, Some(_)) => false,
+            }
+        })
+}
+
 /// [`ClothSystems::Writeback`](crate::plugin::schedule::ClothSystems::Writeback):
 /// places anchored particles exactly on their targets (they keep the
-/// anchor's velocity).
+/// anchor's velocity). Sleeping cloths are left alone.
 pub(crate) fn snap_anchors(
     _main: crate::plugin::schedule::MainThread,
-    mut cloths: Query<(&ClothAnchors, &mut ClothParticles)>,
+    mut cloths: Query<(&ClothAnchors, &mut ClothParticles, &ClothSleep)>,
 ) {
-    for (anchors, mut particles) in &mut cloths {
+    for (anchors, mut particles, _) in cloths.iter_mut().filter(|c| !c.2.is_asleep()) {
         for anchor in &anchors.0 {
             if let (Some(goal), Some(x)) = (
                 anchor.goal,

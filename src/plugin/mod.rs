@@ -39,6 +39,7 @@ pub mod pose;
 pub mod rapier;
 pub mod schedule;
 pub mod skin;
+pub mod sleep;
 pub mod systems;
 pub mod tether;
 pub mod wind;
@@ -153,6 +154,7 @@ impl Plugin for ClothPlugin {
             .register_required_components::<Cloth, ClothForces>()
             .register_required_components::<Cloth, systems::ClothScratch>()
             .register_required_components::<Cloth, ClothStats>()
+            .register_required_components::<Cloth, sleep::ClothSleep>()
             .register_required_components::<Cloth, interaction::ClothGrabs>()
             .register_required_components::<Cloth, ClothMaterial>()
             .register_required_components::<Cloth, mesh::ClothPrevious>()
@@ -169,6 +171,7 @@ impl Plugin for ClothPlugin {
             .register_type::<events::ClothReleased>()
             .register_type::<events::ClothAtRest>()
             .register_type::<events::ClothWoke>()
+            .register_type::<sleep::ClothSleep>()
             .init_resource::<schedule::ClothPause>()
             .register_type::<schedule::ClothPause>()
             .configure_sets(

@@ -14,6 +14,7 @@ use bevy::time::Fixed;
 use crate::error::ClothError;
 use crate::plugin::components::ClothParticles;
 use crate::plugin::mesh_cloth::{MeshLayout, float_attribute};
+use crate::plugin::sleep::ClothSleep;
 use crate::plugin::tether::ClothTethers;
 use crate::sim::skin::{Backstop, Influence, limit_distance, push_out_of_capsule, skin};
 
@@ -240,12 +241,31 @@ pub(crate) fn follow_skins(
     _main: crate::plugin::schedule::MainThread,
     time: Res<Time<Fixed>>,
     transforms: Query<(&Transform, Option<&ChildOf>)>,
-    mut cloths: Query<(&ClothSkin, &mut SkinTargets, &mut ClothParticles)>,
+    mut cloths: Query<(
+        &ClothSkin,
+        &mut SkinTargets,
+        &mut ClothParticles,
+        &ClothSleep,
+    )>,
 ) {
     let dt = time.timestep().as_secs_f32();
-    for (skin_of, mut targets, mut particles) in &mut cloths {
+    for (skin_of, mut targets, mut particles, sleep) in &mut cloths {
         let n = particles.len();
         if skin_of.rest.len() != n || skin_of.influences.len() != n || skin_of.freedom.len() != n {
+            continue;
+        }
+        // A sleeping cloth whose skeleton has not moved is left alone (and
+        // asleep).
+        if sleep.is_asleep()
+            && targets.joint_worlds.len() == skin_of.joints.len()
+            && skin_of
+                .joints
+                .iter()
+                .zip(&targets.joint_worlds)
+                .all(|(&joint, &was)| {
+                    world_of(joint, &transforms).unwrap_or(Affine3A::IDENTITY) == was
+                })
+        {
             continue;
         }
         let targets = &mut *targets;
@@ -302,10 +322,10 @@ pub(crate) fn follow_skins(
 pub(crate) fn limit_skins(
     _main: crate::plugin::schedule::MainThread,
     time: Res<Time<Fixed>>,
-    mut cloths: Query<(&ClothSkin, &SkinTargets, &mut ClothParticles)>,
+    mut cloths: Query<(&ClothSkin, &SkinTargets, &mut ClothParticles, &ClothSleep)>,
     mut limits: bevy::prelude::Local<Vec<f32>>,
 ) {
-    for (skin_of, targets, mut particles) in &mut cloths {
+    for (skin_of, targets, mut particles, _) in cloths.iter_mut().filter(|c| !c.3.is_asleep()) {
         let n = particles.len();
         if targets.positions.len() != n || skin_of.freedom.len() != n {
             continue;

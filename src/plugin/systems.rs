@@ -25,15 +25,17 @@ use bevy::ecs::query::QueryData;
 
 use crate::plugin::collision::{
     ClothCollision, ClothCollisionStats, ClothContactImpulses, ClothSelfCollision, ColliderScene,
-    ContactLayers, Feedback, SceneContacts, SelfCollisionScratch, bounds,
+    ContactLayers, Feedback, SceneContacts, SelfCollisionScratch, SleepWatch, bounds,
 };
 use crate::plugin::components::Cloth;
 use crate::plugin::components::{ClothForces, ClothStats};
 use crate::plugin::events::ClothDiverged;
-use crate::plugin::events::{ClothAtRest, ClothWoke, RestChange};
 use crate::plugin::interaction::ClothGrabs;
+use crate::plugin::sleep::{Change, ClothSleep};
 use crate::plugin::tether::{ClothTethers, TetherScratch};
+use crate::plugin::wind::ClothWind;
 use crate::sim::guard::{StepInput, step_guarded};
+use crate::sim::sleep::{RestChange, RestTracker};
 
 /// Checks what the step indexes so that user edits can never make it panic:
 /// equal array lengths, and every link inside the particle range.
@@ -119,7 +121,9 @@ pub(crate) struct ClothScratch {
     /// The impulses this step gave colliders with feedback.
     pub(crate) feedback: Feedback,
     /// Whether the cloth is at rest, and for how long it has been calm.
-    pub(crate) rest: crate::plugin::events::RestTracker,
+    pub(crate) rest: RestTracker,
+    /// What a sleeping cloth watches.
+    pub(crate) sleep: SleepWatch,
 }
 
 /// What the step reads and writes of one cloth.
@@ -130,18 +134,38 @@ pub(crate) struct StepQuery {
     cloth: &'static Cloth,
     particles: &'static mut ClothParticles,
     connections: Ref<'static, ClothConnections>,
-    settings: Option<&'static ClothSettings>,
-    material: Option<&'static crate::plugin::material::ClothMaterial>,
-    forces: &'static ClothForces,
+    settings: Option<Ref<'static, ClothSettings>>,
+    material: Option<Ref<'static, crate::plugin::material::ClothMaterial>>,
+    forces: Ref<'static, ClothForces>,
     scratch: &'static mut ClothScratch,
     stats: &'static mut ClothStats,
-    collision: Option<&'static ClothCollision>,
-    layers: Option<&'static ContactLayers>,
+    sleep: &'static mut ClothSleep,
+    collision: Option<Ref<'static, ClothCollision>>,
+    layers: Option<Ref<'static, ContactLayers>>,
     self_collision: Option<(
-        &'static ClothSelfCollision,
+        Ref<'static, ClothSelfCollision>,
         &'static mut SelfCollisionScratch,
     )>,
-    tethers: Option<(&'static ClothTethers, &'static mut TetherScratch)>,
+    tethers: Option<(Ref<'static, ClothTethers>, &'static mut TetherScratch)>,
+}
+
+impl StepQueryItem<'_, '_> {
+    /// Whether anything that could move this sleeping cloth changed since it
+    /// fell asleep or was last looked at ([`sleep`](crate::plugin::sleep)
+    /// module docs; the colliders, the wind and the defaults are the
+    /// caller's).
+    fn disturbed(&self) -> bool {
+        let changed = |c: Option<bool>| c.unwrap_or(false);
+        self.scratch.sleep.tick != Some(self.particles.last_changed())
+            || self.connections.is_changed()
+            || changed(self.settings.as_ref().map(DetectChanges::is_changed))
+            || changed(self.material.as_ref().map(DetectChanges::is_changed))
+            || changed(self.collision.as_ref().map(DetectChanges::is_changed))
+            || changed(self.layers.as_ref().map(DetectChanges::is_changed))
+            || changed(self.self_collision.as_ref().map(|s| s.0.is_changed()))
+            || changed(self.tethers.as_ref().map(|t| t.0.is_changed()))
+            || (self.forces.is_changed() && self.forces.0.iter().any(|f| *f != Vec3::ZERO))
+    }
 }
 
 /// Bevy's compute task pool as the [`Workers`] a step spreads its force
@@ -199,15 +223,22 @@ pub(crate) fn step_cloths(
     mut cloths: Query<StepQuery>,
     ticks: SystemChangeTick,
     mut pool: Local<Pool>,
+    wind: Option<Res<ClothWind>>,
+    mut blew: Local<bool>,
 ) {
     let pool = compute_pool(&mut pool);
     let now = ticks.this_run();
     let dt = time.timestep().as_secs_f32();
+    // What wakes every sleeping cloth: new defaults, the wind stopping (its
+    // start and change reach them as forces).
+    let blows = wind.is_some_and(|w| w.blows());
+    let stopped = std::mem::replace(&mut *blew, blows) && !blows;
+    let everything = defaults.is_changed() || stopped;
     let totals: [AtomicU64; 4] = Default::default();
     let feedback = Mutex::new(Vec::new());
     cloths.par_iter_mut().for_each(|mut item| {
-        let base = item.settings.map_or(&defaults.0, |own| &own.0);
-        let material = item.material.copied().unwrap_or_default();
+        let base = item.settings.as_deref().map_or(&defaults.0, |own| &own.0);
+        let material = item.material.as_deref().copied().unwrap_or_default();
         let settings = &*material.settings(base, item.cloth.spacing());
         let connections: &ClothConnections = &item.connections;
         let max_index = item.scratch.measured.max_index(&item.connections, now);
@@ -224,6 +255,33 @@ pub(crate) fn step_cloths(
             return;
         }
         item.scratch.warned_invalid = false;
+        item.scratch.sleep.settings = settings.sleep;
+        // Sleep: a sleeping cloth stays as it is unless something could
+        // move it; a woken one continues from where it slept.
+        let asked = item.sleep.wake_requested();
+        if asked {
+            item.sleep.take_wake();
+        }
+        let was_asleep = item.sleep.is_asleep();
+        if was_asleep {
+            let tolerance = settings.sleep.rest_speed * dt;
+            let layers = item.layers.as_deref().copied().unwrap_or_default();
+            if !(asked
+                || everything
+                || item.disturbed()
+                || item.scratch.sleep.scene_changed(&scene, layers, tolerance))
+            {
+                return;
+            }
+            item.sleep.set_asleep(false);
+            item.scratch.sleep.tick = None;
+        }
+        if asked || was_asleep {
+            if item.scratch.rest.resting() {
+                item.scratch.sleep.event = Some(Change::Woke);
+            }
+            item.scratch.rest.wake();
+        }
         let scratch = &mut *item.scratch;
         if scratch.buffers.workers.0.is_none() {
             scratch.buffers.workers = pool.clone();
@@ -244,7 +302,7 @@ pub(crate) fn step_cloths(
                 .fold(0.0, f32::max);
             let reach = thickness + 2.0 * speed * dt + settings.gravity.length() * dt * dt + 0.01;
             let (lo, hi) = bounds(&item.particles.positions, reach);
-            let layers = item.layers.copied().unwrap_or_default();
+            let layers = item.layers.as_deref().copied().unwrap_or_default();
             scratch.near.extend(
                 scene
                     .overlapping(lo, hi)
@@ -261,6 +319,7 @@ pub(crate) fn step_cloths(
             .as_mut()
             .filter(|(t, _)| t.slack.is_finite() && t.slack >= 1.0)
             .map(|(t, made)| {
+                let t = &**t;
                 made.0.update(connections, &item.particles.inverse_masses);
                 (&made.0, t.slack)
             });
@@ -271,7 +330,7 @@ pub(crate) fn step_cloths(
             near: &scratch.near,
             thickness,
             helper,
-            in_solve: item.collision.is_none_or(|c| c.in_solve),
+            in_solve: item.collision.as_ref().is_none_or(|c| c.in_solve),
             self_collision,
             tethers,
             masked: &mut scratch.masked,
@@ -345,33 +404,58 @@ pub(crate) fn step_cloths(
 }
 
 /// What the writeback reads and writes of one cloth.
-type WritebackQuery = (
-    Entity,
-    Ref<'static, ClothParticles>,
-    Ref<'static, ClothConnections>,
-    &'static mut ClothForces,
-    &'static mut ClothStats,
-    &'static mut ClothScratch,
-    Option<&'static ClothGrabs>,
-);
+#[derive(QueryData)]
+#[query_data(mutable)]
+pub(crate) struct WritebackQuery {
+    entity: Entity,
+    particles: Ref<'static, ClothParticles>,
+    connections: Ref<'static, ClothConnections>,
+    forces: &'static mut ClothForces,
+    stats: &'static mut ClothStats,
+    scratch: &'static mut ClothScratch,
+    sleep: &'static mut ClothSleep,
+    grabs: Option<&'static ClothGrabs>,
+    collision: Option<&'static ClothCollision>,
+    layers: Option<&'static ContactLayers>,
+}
 
 /// [`ClothSystems::Writeback`](crate::plugin::schedule::ClothSystems::Writeback):
 /// clears the external forces, measures [`ClothStats`] (with the strain the
 /// step's guard measured, if the particles have not changed since:
-/// [`Measured`]), reports the step's divergences ([`report_divergence`]) and
-/// triggers [`ClothAtRest`] and [`ClothWoke`], in one system. A cloth
-/// whose grabs move a particle is not at rest, whatever its free particles
-/// do.
+/// [`Measured`]), reports the step's divergences ([`report_divergence`]),
+/// triggers [`ClothAtRest`](crate::plugin::events::ClothAtRest) and
+/// [`ClothWoke`](crate::plugin::events::ClothWoke), and puts cloths at rest
+/// to sleep, in one system. A cloth whose grabs move a particle is not at
+/// rest, whatever its free particles do; a held cloth does not sleep.
 pub(crate) fn finish_step(
     _main: crate::plugin::schedule::MainThread,
     mut commands: Commands,
     mut cloths: Query<WritebackQuery>,
     mut out: MessageWriter<ClothDiverged>,
     ticks: SystemChangeTick,
+    scene: Res<ColliderScene>,
 ) {
     let now = ticks.this_run();
-    for (entity, particles, connections, mut forces, mut stats, mut scratch, grabs) in &mut cloths {
+    for item in &mut cloths {
+        let WritebackQueryItem {
+            entity,
+            particles,
+            connections,
+            mut forces,
+            mut stats,
+            mut scratch,
+            mut sleep,
+            grabs,
+            collision,
+            layers,
+        } = item;
         report_divergence(entity, &mut scratch, &mut out, &mut commands);
+        if let Some(change) = scratch.sleep.event.take() {
+            change.trigger(entity, &mut commands);
+        }
+        if sleep.is_asleep() {
+            continue;
+        }
         if forces.0.iter().any(|f| *f != Vec3::ZERO) {
             forces.0.fill(Vec3::ZERO);
         }
@@ -398,12 +482,31 @@ pub(crate) fn finish_step(
         } else {
             stats.max_speed.max(grabbed)
         };
-        match scratch.rest.step(speed) {
-            Some(RestChange::CameToRest) => commands.trigger(ClothAtRest { entity }),
-            Some(RestChange::Woke) => commands.trigger(ClothWoke { entity }),
-            None => {}
+        let settings = scratch.sleep.settings;
+        let change = match scratch.rest.step(speed, &settings) {
+            Some(RestChange::CameToRest) => Some(Change::Rested),
+            Some(RestChange::Woke) => Some(Change::Woke),
+            None => None,
+        };
+        if let Some(change) = change {
+            change.trigger(entity, &mut commands);
         }
         stats.resting = scratch.rest.resting();
+        let held = grabs.is_some_and(|g| !g.grabs().is_empty());
+        if settings.enabled && stats.resting && !held && stats.finite {
+            let thickness = collision.map_or(ClothCollision::default().thickness, |c| c.thickness);
+            let pad = thickness.max(0.0) + settings.margin;
+            let layers = layers.copied().unwrap_or_default();
+            let around = bounds(&particles.positions, pad);
+            if around.0.is_finite()
+                && around.1.is_finite()
+                && scratch
+                    .sleep
+                    .fall_asleep(&scene, around, layers, particles.last_changed())
+            {
+                sleep.set_asleep(true);
+            }
+        }
     }
 }
 

@@ -4,11 +4,13 @@
 
 use bevy::math::Vec3;
 use bevy::prelude::{
-    Deref, DerefMut, Local, Query, Reflect, ReflectDefault, ReflectResource, Res, Resource, Time,
+    Deref, DerefMut, DetectChanges, Local, Query, Reflect, ReflectDefault, ReflectResource, Res,
+    Resource, Time,
 };
 use bevy::time::Fixed;
 
 use crate::plugin::components::{Cloth, ClothForces, ClothParticles};
+use crate::plugin::sleep::ClothSleep;
 use crate::sim::wind::{Wind, step_wind_forces};
 
 /// The air around every cloth: a [`Wind`], which it dereferences to.
@@ -36,12 +38,19 @@ pub(crate) fn apply_wind(
     time: Res<Time<Fixed>>,
     wind: Res<ClothWind>,
     mut scratch: Local<(Vec<Vec3>, Vec<f32>)>,
-    mut cloths: Query<(&Cloth, &ClothParticles, &mut ClothForces)>,
+    mut last: Local<Option<Vec3>>,
+    mut cloths: Query<(&Cloth, &ClothParticles, &mut ClothForces, &ClothSleep)>,
 ) {
     let air = wind.at(time.elapsed_secs());
     let dt = time.timestep().as_secs_f32();
     let (wind_f, rates) = &mut *scratch;
-    for (cloth, particles, mut forces) in &mut cloths {
+    // A wind that starts, changes or gusts reaches sleeping cloths too, and
+    // its force wakes them; a steady one leaves them asleep.
+    let changed = wind.is_changed() || last.replace(air) != Some(air);
+    for (cloth, particles, mut forces, sleep) in &mut cloths {
+        if sleep.is_asleep() && !changed {
+            continue;
+        }
         let n = particles.len();
         if cloth.len() != n || particles.inverse_masses.len() != n {
             continue;

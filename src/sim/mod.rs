@@ -60,6 +60,7 @@ pub mod model;
 pub mod particles;
 pub mod settings;
 pub mod skin;
+pub mod sleep;
 pub(crate) mod soa;
 pub mod step;
 pub(crate) mod team;

@@ -10,6 +10,7 @@ use bevy::reflect::Reflect;
 use bevy::reflect::std_traits::ReflectDefault;
 
 use crate::error::ClothError;
+pub use crate::sim::sleep::SleepSettings;
 
 /// Which internal force model a cloth uses.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Reflect)]
@@ -367,6 +368,9 @@ pub struct SimSettings {
     /// as many more as the cloth's stiffest mode needs. `None` runs exactly
     /// [`substeps`](Self::substeps).
     pub adaptive: Option<AdaptiveSubsteps>,
+    /// When the cloth is at rest, and whether it then sleeps (on by
+    /// default).
+    pub sleep: SleepSettings,
 }
 
 /// Whether a cloth's internal forces are evaluated in parallel row bands on
@@ -434,6 +438,7 @@ impl Default for SimSettings {
             guard: GuardSettings::default(),
             parallel: Parallelism::Auto,
             adaptive: Some(AdaptiveSubsteps::default()),
+            sleep: SleepSettings::default(),
         }
     }
 }
@@ -464,6 +469,7 @@ impl SimSettings {
         if self.substeps == 0 || self.substeps > MAX_SUBSTEPS {
             return Err(ClothError::InvalidSubsteps(self.substeps));
         }
+        self.sleep.validate()?;
         if !self.gravity.is_finite() {
             return Err(ClothError::InvalidGravity(self.gravity));
         }

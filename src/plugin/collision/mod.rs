@@ -33,6 +33,7 @@
 mod contacts;
 mod from_mesh;
 mod scene;
+mod watch;
 
 use std::sync::Arc;
 
@@ -60,6 +61,7 @@ pub use scene::{
     ClothColliderSources, ClothContactImpulses, ColliderScene, ContactImpulse, ContactLayers,
     ReportClothImpulses, SceneCollider,
 };
+pub(crate) use watch::SleepWatch;
 
 /// A triangle mesh shared between colliders (opaque to reflection).
 #[derive(Clone, Debug, Reflect)]
@@ -392,18 +394,22 @@ fn mesh_in_scene(scene: Res<ColliderScene>) -> bool {
         .any(|c| matches!(c.shape, ColliderShape::Mesh(_)))
 }
 
+/// What the triangle–triangle pass reads and writes of one cloth.
+type SeedQuery = (
+    &'static Cloth,
+    &'static mut ClothParticles,
+    Option<&'static ClothCollision>,
+    Option<&'static ContactLayers>,
+    &'static crate::plugin::sleep::ClothSleep,
+);
+
 /// [`ClothSystems::Collide`]: the paper's
 /// triangle–triangle pass against mesh colliders, once per fixed step.
 fn seed_pass(
     _main: crate::plugin::schedule::MainThread,
     time: Res<Time<Fixed>>,
     scene: Res<ColliderScene>,
-    mut cloths: Query<(
-        &Cloth,
-        &mut ClothParticles,
-        Option<&ClothCollision>,
-        Option<&ContactLayers>,
-    )>,
+    mut cloths: Query<SeedQuery>,
     mut stats: ResMut<ClothCollisionStats>,
 ) {
     // Only mesh colliders take part: with none in the scene, no work.
@@ -416,7 +422,10 @@ fn seed_pass(
     }
     let dt = time.timestep().as_secs_f32();
     let mut counts = Counts::default();
-    for (cloth, mut particles, settings, layers) in &mut cloths {
+    for (cloth, mut particles, settings, layers, sleep) in &mut cloths {
+        if sleep.is_asleep() {
+            continue;
+        }
         let layers = layers.copied().unwrap_or_default();
         let thickness = settings.map_or(ClothCollision::default().thickness, |s| s.thickness);
         if particles.len() != cloth.len() || !(thickness.is_finite() && thickness >= 0.0) {
