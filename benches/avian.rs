@@ -54,6 +54,10 @@ impl Scene {
         ))
         .insert_resource(Time::<Fixed>::from_hz(60.0))
         .insert_resource(TimeUpdateStrategy::FixedTimesteps(1));
+        // Timed stepping: a cloth that comes to rest keeps stepping.
+        let mut settings = SimSettings::default();
+        settings.sleep.enabled = false;
+        app.insert_resource(ClothDefaults(settings));
         if bridge {
             app.add_plugins(ClothAvianPlugin::default());
         }

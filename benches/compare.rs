@@ -5,8 +5,9 @@
 //! pinned at its two top corners, let go flat at rest.
 //!
 //! - **bevy_cloth**: a headless `App` (`MinimalPlugins`, `ClothPlugin`) with
-//!   every default (cotton, backward Euler, one step per 1/60 s frame); one
-//!   `App::update` is one frame, the App's own cost included.
+//!   every default (cotton, backward Euler, one step per 1/60 s frame) but
+//!   sleep, which is off so that the cloth steps every frame as the other
+//!   does; one `App::update` is one frame, the App's own cost included.
 //! - **rapier-cloth-core 0.3** (XPBD): its defaults, 4 substeps of 1/240 s
 //!   per frame with 8 iterations each (`SolverSettings::default`, the
 //!   substep of its README), its default material; its solver alone, no

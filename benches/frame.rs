@@ -71,6 +71,8 @@ fn game_frame(c: &mut Criterion) {
             .with_integrator(integrator, substeps)
             .without_adaptive();
         settings.implicit.helper_thread = helper;
+        // Timed stepping: a cloth that comes to rest keeps stepping.
+        settings.sleep.enabled = false;
         let mut app = headless(settings);
         app.world_mut().spawn((
             ClothCollider::sphere(0.3),
@@ -114,7 +116,9 @@ fn tablecloth_frame(c: &mut Criterion) {
     group
         .measurement_time(Duration::from_secs(5))
         .sample_size(20);
-    let mut app = headless(ClothSettings::default());
+    let mut settings = ClothSettings::default();
+    settings.sleep.enabled = false;
+    let mut app = headless(settings);
     app.world_mut().spawn((
         ClothCollider::plane().with_friction(0.6),
         Transform::default(),

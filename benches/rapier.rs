@@ -7,7 +7,8 @@
 //! pinned at its two top corners, let go flat at rest.
 //!
 //! - **bevy_cloth**: `MinimalPlugins` and `ClothPlugin` with every default
-//!   (cotton, backward Euler, one step per 1/60 s frame).
+//!   (cotton, backward Euler, one step per 1/60 s frame) but sleep, which is
+//!   off so that the cloth steps every frame as rapier's does.
 //! - **bevy_rapier3d 0.37**: `MinimalPlugins`, `TransformPlugin` and
 //!   `RapierPhysicsPlugin` with every default (its variable timestep of at
 //!   most 1/60 s, one substep), the cloth a `SoftBody::cloth` with the

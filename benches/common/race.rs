@@ -36,7 +36,7 @@ pub fn structural_strain(n: usize, h: f32, x: impl Fn(usize) -> Vec3) -> f32 {
     worst
 }
 
-/// This crate, with its defaults, in a headless App.
+/// This crate, with its defaults but sleep, in a headless App.
 pub struct Ours {
     app: App,
     cloth: Entity,
@@ -45,10 +45,20 @@ pub struct Ours {
 
 impl Ours {
     pub fn new(n: usize) -> Self {
+        // Sleep off: the cloth steps every frame, as the engines it is
+        // compared with do, even once it hangs at rest.
+        let mut settings = SimSettings::default();
+        settings.sleep.enabled = false;
+        Self::with_settings(n, settings)
+    }
+
+    /// The same cloth with `settings` as the defaults.
+    pub fn with_settings(n: usize, settings: SimSettings) -> Self {
         let mut app = App::new();
         app.add_plugins((MinimalPlugins, ClothPlugin::default()))
             .insert_resource(Time::<Fixed>::from_hz(60.0))
-            .insert_resource(TimeUpdateStrategy::FixedTimesteps(1));
+            .insert_resource(TimeUpdateStrategy::FixedTimesteps(1))
+            .insert_resource(ClothDefaults(settings));
         let cloth = ClothBuilder::new(n as u32, n as u32)
             .size(1.0, 1.0)
             .position(Vec3::new(0.0, 1.5, 0.0))
