@@ -7,8 +7,10 @@
 //! two top corners, released flat, every default but sleep), with the
 //! implicit solve's helper thread on (the default) and off. The busy
 //! threads spin on arithmetic while a runner's block runs under load and
-//! sleep otherwise. After 60 frames of warm-up, the four runs (helper on
-//! and off, idle and loaded) are timed in turns of 20 frames. Printed: the
+//! sleep otherwise. After 60 frames of warm-up, the runs with the helper on
+//! and off are timed in turns of 20 frames with the cores idle, then the
+//! same with the busy threads on (a late helper is left alone for up to
+//! 4 s, which would reach into idle turns taken in between). Printed: the
 //! median and range of the ms per frame, and loaded over idle.
 //!
 //! `cargo bench --bench contention -- 32 64 128` sets the sizes.
@@ -97,7 +99,7 @@ fn main() {
     );
     println!("|---|---|---|---|---|");
     for n in sizes(&[32, 64, 128]) {
-        let mut runs: Vec<Loaded> = [(true, false), (true, true), (false, false), (false, true)]
+        let mut runs: Vec<Loaded> = [(true, false), (false, false), (true, true), (false, true)]
             .into_iter()
             .map(|(helper, loaded)| {
                 let mut settings = SimSettings::default();
@@ -115,13 +117,17 @@ fn main() {
                 run.frame();
             }
         }
-        let mut refs: Vec<&mut dyn Runner> =
-            runs.iter_mut().map(|r| r as &mut dyn Runner).collect();
-        let mut times = race(&mut refs, FRAMES, 20);
+        let (idle, loaded) = runs.split_at_mut(2);
+        let mut times = Vec::new();
+        for phase in [idle, loaded] {
+            let mut refs: Vec<&mut dyn Runner> =
+                phase.iter_mut().map(|r| r as &mut dyn Runner).collect();
+            times.extend(race(&mut refs, FRAMES, 20));
+        }
         busy.on.store(false, Ordering::Relaxed);
-        for (k, helper) in [(0, "on"), (2, "off")] {
+        for (k, helper) in [(0, "on"), (1, "off")] {
             let (idle, i_lo, i_hi) = summary(&mut times[k]);
-            let (load, l_lo, l_hi) = summary(&mut times[k + 1]);
+            let (load, l_lo, l_hi) = summary(&mut times[k + 2]);
             println!(
                 "| {n}×{n} | {helper} | {idle:.2} ({i_lo:.2}–{i_hi:.2}) | {load:.2} ({l_lo:.2}–{l_hi:.2}) | {:.2}× |",
                 load / idle

@@ -19,6 +19,14 @@
 //! a second cloth solving at the same moment, on another thread of Bevy's
 //! pool, runs on its own thread alone.
 //!
+//! A helper whose core is taken by other busy threads of the process would
+//! make every barrier wait for the scheduler: a 64×64 frame then cost 5.5
+//! times its idle cost. So every shared run is timed, and a run in which
+//! the calling thread spent most of its time waiting for the helper leaves
+//! the helper alone for a while (¼ s, doubling while it stays late, up to
+//! 4 s): claims fail and the work runs on the calling thread, to the same
+//! bits.
+//!
 //! A job must not panic; if one half does anyway, the other stops at its
 //! next barrier and the panic is raised on the calling thread.
 //!
@@ -56,6 +64,21 @@ const SPIN_AFTER_WAKE: Duration = Duration::from_millis(5);
 /// turns the wait also yields, in case the two share a core.
 const SPINS_BEFORE_YIELD: u32 = 1 << 14;
 
+/// A shared run in which the calling thread waited for the helper for more
+/// than this share of the run, and for at least [`LATE_WAIT`], found the
+/// helper late: its core is taken by other busy threads of the process (a
+/// game's render extraction, AI, physics), and every barrier would wait for
+/// the scheduler to give it back.
+const LATE_SHARE: f64 = 0.5;
+/// The least wait that counts as late: a parked helper's wake-up alone
+/// takes some tens of µs.
+const LATE_WAIT: Duration = Duration::from_micros(200);
+/// How long a late helper is left alone (work runs on the calling thread,
+/// to the same bits) before it is tried again; doubled after each late
+/// try, up to [`MAX_BACKOFF`], and back to this after a run on time.
+const BACKOFF: Duration = Duration::from_millis(250);
+const MAX_BACKOFF: Duration = Duration::from_secs(4);
+
 /// A value on its own cache line, so that the two threads' counters do not
 /// bounce one line between the cores.
 #[repr(align(128))]
@@ -78,6 +101,9 @@ pub(crate) struct Team {
     partial: [Line<[AtomicU64; 2]>; 2],
     /// A half panicked: the other stops at its next barrier.
     poisoned: AtomicBool,
+    /// How long the calling thread has waited for the helper in this run,
+    /// ns.
+    waited: AtomicU64,
 }
 
 impl Team {
@@ -86,6 +112,7 @@ impl Team {
             passed: Default::default(),
             partial: Default::default(),
             poisoned: AtomicBool::new(false),
+            waited: AtomicU64::new(0),
         }
     }
 
@@ -95,7 +122,12 @@ impl Team {
         let mine = self.passed[part].0.fetch_add(1, Ordering::AcqRel) + 1;
         let other = &self.passed[1 - part].0;
         let mut spins = 0u32;
+        // The calling thread times its waits (only when it has to wait).
+        let mut since = None;
         while other.load(Ordering::Acquire) < mine {
+            if part == 0 && since.is_none() {
+                since = Some(Instant::now());
+            }
             if self.poisoned.load(Ordering::Relaxed) {
                 panic!("the other half of the solve panicked");
             }
@@ -106,6 +138,15 @@ impl Team {
                 std::thread::yield_now();
             }
         }
+        if let Some(since) = since {
+            self.add_wait(since);
+        }
+    }
+
+    /// Adds the time since `since` to the calling thread's wait.
+    fn add_wait(&self, since: Instant) {
+        let ns = since.elapsed().as_nanos().min(u64::MAX as u128) as u64;
+        self.waited.fetch_add(ns, Ordering::Relaxed);
     }
 
     /// The sum of both threads' `value` in `slot` (0 or 1): each passes a
@@ -126,6 +167,7 @@ impl Team {
             p.0.store(0, Ordering::Relaxed);
         }
         self.poisoned.store(false, Ordering::Relaxed);
+        self.waited.store(0, Ordering::Relaxed);
     }
 }
 
@@ -141,6 +183,10 @@ struct Helper {
     /// Spin for a job until this many µs after `epoch` (a wake-up).
     spin_until: AtomicU64,
     epoch: Instant,
+    /// Claims fail until this many µs after `epoch`: the helper was late.
+    avoid_until: AtomicU64,
+    /// The next wait after a late run, µs.
+    backoff: AtomicU64,
     job: Mutex<Option<Job>>,
     team: Team,
 }
@@ -172,6 +218,8 @@ fn helper() -> Option<&'static Helper> {
             finished: AtomicU64::new(0),
             spin_until: AtomicU64::new(0),
             epoch: Instant::now(),
+            avoid_until: AtomicU64::new(0),
+            backoff: AtomicU64::new(BACKOFF.as_micros() as u64),
             job: Mutex::new(None),
             team: Team::new(),
         }));
@@ -181,6 +229,38 @@ fn helper() -> Option<&'static Helper> {
 }
 
 impl Helper {
+    /// µs since `epoch`.
+    fn now(&self) -> u64 {
+        self.epoch.elapsed().as_micros().min(u64::MAX as u128) as u64
+    }
+
+    /// Whether the helper is being left alone after a late run.
+    fn avoided(&self) -> bool {
+        self.now() < self.avoid_until.load(Ordering::Relaxed)
+    }
+
+    /// Judges a shared run that took `total` of which the calling thread
+    /// waited `waited` for the helper: late, it is left alone for the
+    /// backoff (which doubles); on time, the backoff starts over.
+    fn judge(&self, total: Duration, waited: Duration) {
+        // Unit tests that need the helper would wait out its backoff on a
+        // loaded machine: there it is judged only where a test asks.
+        #[cfg(test)]
+        if !JUDGE.load(Ordering::Relaxed) {
+            return;
+        }
+        if waited >= LATE_WAIT && waited.as_secs_f64() > LATE_SHARE * total.as_secs_f64() {
+            let backoff = self.backoff.load(Ordering::Relaxed);
+            self.avoid_until
+                .store(self.now().saturating_add(backoff), Ordering::Relaxed);
+            let next = (2 * backoff).min(MAX_BACKOFF.as_micros() as u64);
+            self.backoff.store(next, Ordering::Relaxed);
+        } else if waited.as_secs_f64() < 0.5 * LATE_SHARE * total.as_secs_f64() {
+            self.backoff
+                .store(BACKOFF.as_micros() as u64, Ordering::Relaxed);
+        }
+    }
+
     /// The helper thread's loop: wait for a job, run its half, repeat.
     fn serve(&self) {
         let mut done = 0u64;
@@ -200,6 +280,8 @@ impl Helper {
                 }
                 continue;
             }
+            #[cfg(test)]
+            std::thread::sleep(Duration::from_micros(LATE_BY.load(Ordering::Relaxed)));
             let job = *self.job.lock().unwrap_or_else(|e| e.into_inner());
             if let Some(Job(f)) = job {
                 // SAFETY: the caller of `run` keeps the closure alive until
@@ -253,10 +335,38 @@ pub(crate) fn lend_helper<R>(f: impl FnOnce() -> R) -> R {
     result.unwrap_or_else(|e| resume_unwind(e))
 }
 
-/// Wakes the helper, if there is one, to spin for a job for a few ms: a
-/// step calls this before its set-up, so that the solve finds it running.
-pub(crate) fn wake() {
+/// Makes the helper start every job this many µs late, as a thread
+/// descheduled by busy neighbours is: how tests see the late-helper path.
+#[cfg(test)]
+pub(crate) static LATE_BY: AtomicU64 = AtomicU64::new(0);
+
+/// Whether runs are judged late in unit tests ([`Helper::judge`]).
+#[cfg(test)]
+pub(crate) static JUDGE: AtomicBool = AtomicBool::new(false);
+
+/// Whether the helper is being left alone after a late run.
+#[cfg(test)]
+pub(crate) fn left_alone() -> bool {
+    HELPER.get().copied().flatten().is_some_and(Helper::avoided)
+}
+
+/// Ends a late helper's backoff.
+#[cfg(test)]
+pub(crate) fn forgive() {
     if let Some(h) = HELPER.get().copied().flatten() {
+        h.avoid_until.store(0, Ordering::Relaxed);
+        h.backoff
+            .store(BACKOFF.as_micros() as u64, Ordering::Relaxed);
+    }
+}
+
+/// Wakes the helper, if there is one and it is not being left alone, to
+/// spin for a job for a few ms: a step calls this before its set-up, so
+/// that the solve finds it running.
+pub(crate) fn wake() {
+    if let Some(h) = HELPER.get().copied().flatten()
+        && !h.avoided()
+    {
         let until = h.epoch.elapsed() + SPIN_AFTER_WAKE;
         h.spin_until
             .store(until.as_micros() as u64, Ordering::Relaxed);
@@ -301,9 +411,13 @@ pub(crate) fn both<A: Send, B: Send>(
 pub(crate) struct Claim(&'static Helper, #[allow(dead_code)] MutexGuard<'static, ()>);
 
 /// Claims the helper (spawning it on first use), or `None` when it cannot
-/// be had: no thread, or another solve is using it.
+/// be had: no thread, another solve is using it, or it was late in a recent
+/// run (see [`LATE_SHARE`]).
 pub(crate) fn claim() -> Option<Claim> {
     let h = helper()?;
+    if h.avoided() {
+        return None;
+    }
     let guard = h.claim.try_lock().ok()?;
     Some(Claim(h, guard))
 }
@@ -312,8 +426,12 @@ impl Claim {
     /// Runs `f(team, 0)` here and `f(team, 1)` on the helper, and returns
     /// once both are done with the first's result (the helper drops its
     /// own). A panic in either half is raised here.
+    ///
+    /// The run is timed: if this thread spent most of it waiting for the
+    /// helper, later claims fail for a while ([`LATE_SHARE`]).
     pub(crate) fn run<R: Send>(&self, f: impl Fn(&Team, usize) -> R + Sync) -> R {
         let h = self.0;
+        let begun = Instant::now();
         h.team.reset();
         let theirs = |team: &Team| {
             f(team, 1);
@@ -329,10 +447,16 @@ impl Claim {
         if mine.is_err() {
             h.team.poisoned.store(true, Ordering::Relaxed);
         }
-        while h.finished.load(Ordering::Acquire) < number {
-            std::hint::spin_loop();
+        if h.finished.load(Ordering::Acquire) < number {
+            let since = Instant::now();
+            while h.finished.load(Ordering::Acquire) < number {
+                std::hint::spin_loop();
+            }
+            h.team.add_wait(since);
         }
         *h.job.lock().unwrap_or_else(|e| e.into_inner()) = None;
+        let waited = Duration::from_nanos(h.team.waited.load(Ordering::Relaxed));
+        h.judge(begun.elapsed(), waited);
         match mine {
             Ok(r) if !h.team.poisoned.load(Ordering::Relaxed) => r,
             Ok(_) => panic!("the helper's half of the solve panicked"),

@@ -190,3 +190,39 @@ fn the_solve_shares_its_iterations_while_that_is_faster() {
     let picks: Vec<bool> = (0..480).map(|_| choice.share()).collect();
     assert_eq!(picks.iter().filter(|&&p| !p).count(), 2, "{picks:?}");
 }
+
+/// A helper whose core other threads have taken starts its half late: the
+/// shared solve still gives the single-thread bits; and a run in which the
+/// calling thread mostly waited leaves the helper alone (claims fail, the
+/// work runs here) until its backoff ends.
+#[test]
+fn a_late_helper_changes_no_bit_and_is_left_alone() {
+    use std::sync::atomic::Ordering;
+    let shares = crate::simd::level() > crate::simd::Level::Scalar;
+    let (alone, iterations, residual, _) = solve_on(50, true, false);
+    team::LATE_BY.store(2000, Ordering::Relaxed);
+    let (late, iterations2, residual2, threads) = lend_helper(|| solve_on(50, true, true));
+    // Judged: a run of ~0 µs of work that waited 2 ms for the helper.
+    let helper = the_helper();
+    team::JUDGE.store(true, Ordering::Relaxed);
+    helper.run(|team, part| team.barrier(part));
+    team::JUDGE.store(false, Ordering::Relaxed);
+    team::LATE_BY.store(0, Ordering::Relaxed);
+    drop(helper);
+    let left_alone = team::left_alone();
+    let refused = lend_helper(claim).is_none();
+    team::forgive();
+    assert_eq!((iterations, residual), (iterations2, residual2));
+    for (i, (a, b)) in alone.iter().zip(&late).enumerate() {
+        let bits = |v: &Vec3| v.to_array().map(f32::to_bits);
+        assert_eq!(bits(a), bits(b), "{i}");
+    }
+    if team::available() {
+        assert_eq!(threads, if shares { 2 } else { 1 }, "the late solve");
+        assert!(
+            left_alone,
+            "a helper 2 ms late on an empty run is left alone"
+        );
+        assert!(refused, "claims fail while it is left alone");
+    }
+}
