@@ -70,8 +70,7 @@ impl SleepWatch {
 
     /// Whether the colliders around the sleeping cloth have changed: one
     /// appeared or disappeared, or one moved (start to end of this step, or
-    /// since it fell asleep) by more than `tolerance` m at its bounding
-    /// radius.
+    /// since it fell asleep) as [`moved`] has it.
     pub(crate) fn scene_changed(
         &mut self,
         scene: &ColliderScene,
@@ -95,8 +94,9 @@ impl SleepWatch {
     }
 }
 
-/// Whether a collider moved from `a` to `b` by more than `tolerance` (m): its
-/// origin, or a point 1 m from it by turning.
+/// Whether a collider moved from `a` to `b`: its origin by more than
+/// `tolerance` m, or a point 1 m from its origin by turning (by more than
+/// `tolerance` rad).
 fn moved(a: Isometry3d, b: Isometry3d, tolerance: f32) -> bool {
     let shift = Vec3::from(b.translation - a.translation).length();
     let turn = (b.rotation * a.rotation.inverse())
