@@ -153,9 +153,9 @@ fn respawn(
 fn report(
     time: Res<Time<Real>>,
     mut timings: ResMut<Timings>,
-    sheets: Query<(&Cloth, &ClothStats), With<Sheet>>,
+    sheets: Query<(&Cloth, &ClothStats, &ClothSleep), With<Sheet>>,
 ) {
-    let Ok((cloth, stats)) = sheets.single() else {
+    let Ok((cloth, stats, sleep)) = sheets.single() else {
         return;
     };
     if stats.steps > timings.last_step {
@@ -164,20 +164,21 @@ fn report(
     }
     timings.frames.push(time.delta_secs() * 1000.0);
     timings.since_report += time.delta_secs();
-    if timings.since_report < 2.0 || timings.steps.is_empty() {
+    if timings.since_report < 2.0 || (timings.steps.is_empty() && !sleep.is_asleep()) {
         return;
     }
     let median = |v: &mut Vec<f32>| {
         v.sort_by(f32::total_cmp);
-        let m = v[v.len() / 2];
+        let m = v.get(v.len() / 2).copied();
         v.clear();
         m
     };
-    let step = median(&mut timings.steps);
-    let frame = median(&mut timings.frames);
+    // A cloth that has come to rest sleeps: no step to time.
+    let step = median(&mut timings.steps).map_or_else(|| "asleep".into(), |s| format!("{s:.2} ms"));
+    let frame = median(&mut timings.frames).unwrap_or(f32::NAN);
     timings.since_report = 0.0;
     info!(
-        "web: {} particles, step {step:.2} ms, frame {frame:.1} ms, strain {:.2} %",
+        "web: {} particles, step {step}, frame {frame:.1} ms, strain {:.2} %",
         cloth.len(),
         stats.max_strain * 100.0
     );

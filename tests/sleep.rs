@@ -84,6 +84,12 @@ fn a_cloth_at_rest_sleeps_and_stands_exactly_still() {
     assert_eq!(after.velocities, before.velocities);
     assert_eq!(steps(&app, cloth), count, "its step counter stands still");
     assert!(seen(&mut app).is_empty());
+    let stats = app.world().get::<ClothStats>(cloth).unwrap();
+    assert_eq!(
+        (stats.step_micros, stats.solver_iterations),
+        (0.0, 0),
+        "a sleeping cloth costs no step time in its stats and diagnostics"
+    );
 }
 
 /// Counts the fixed steps in which a cloth's particles were written.

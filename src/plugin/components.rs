@@ -258,10 +258,10 @@ pub struct ClothStats {
     /// Whether every position and velocity is finite.
     pub finite: bool,
     /// Conjugate-gradient iterations of the last implicit substep (0 for
-    /// the explicit integrators).
+    /// the explicit integrators, and while the cloth sleeps).
     pub solver_iterations: u32,
     /// Wall-clock time of the last fixed step's integration, µs (for
-    /// display; never asserted on).
+    /// display; never asserted on); 0 while the cloth sleeps.
     pub step_micros: f32,
     /// Substeps the last step ran with (more than the settings' after the
     /// divergence guard stepped in).

@@ -505,6 +505,9 @@ pub(crate) fn finish_step(
                     .fall_asleep(&scene, around, layers, particles.last_changed())
             {
                 sleep.set_asleep(true);
+                // It costs no step while it sleeps.
+                stats.step_micros = 0.0;
+                stats.solver_iterations = 0;
             }
         }
     }
