@@ -3,8 +3,8 @@
 //! A cloth sleeps from the fixed step after [`ClothAtRest`] (with
 //! [`SleepSettings::enabled`](crate::sim::sleep::SleepSettings::enabled),
 //! the default): it is not stepped, its statistics and step count stand
-//! still, its mesh is not rewritten, and its anchors, skin and wind are not
-//! evaluated. Its [`ClothSleep`] says so.
+//! still (its step time reads 0), its mesh is not rewritten, and its
+//! anchors, skin and wind are not evaluated. Its [`ClothSleep`] says so.
 //!
 //! It wakes, and is stepped in the same fixed step, when
 //! - a collider appears, disappears or moves within its box (grown by its
@@ -22,9 +22,9 @@
 //!
 //! A woken cloth continues from the state it slept in (positions and
 //! velocities as they were), fires [`ClothWoke`], and steps at least
-//! `rest_steps` before it can sleep again. A cloth held by a grab, or
-//! touching a body that feels the cloth (a dynamic body of a physics
-//! bridge), does not sleep: the body would lose its support.
+//! `rest_steps` before it can sleep again. A cloth held by a grab, or near
+//! a body that feels the cloth (a dynamic body of a physics bridge), does
+//! not sleep: the body would lose its support.
 //!
 //! ```
 //! # use bevy::prelude::*;
