@@ -226,15 +226,21 @@ fn everything_that_could_move_a_sleeping_cloth_wakes_it_in_the_same_step() {
         }
         assert!(asleep(&app, cloth), "{name}: asleep before");
         trigger(&mut app, cloth, floor);
-        app.update();
-        assert!(!asleep(&app, cloth), "{name}: still asleep");
-        assert_eq!(
-            steps(&app, cloth),
-            count + 1,
-            "{name}: stepped in the same fixed step"
-        );
-        assert_eq!(seen(&mut app), ["woke"], "{name}");
+        wakes_in_the_next_step(&mut app, cloth, count, name);
     }
+}
+
+/// One update wakes the sleeping `cloth`, steps it once (its step count
+/// was `count`) and fires one `ClothWoke`.
+fn wakes_in_the_next_step(app: &mut App, cloth: Entity, count: u64, name: &str) {
+    app.update();
+    assert!(!asleep(app, cloth), "{name}: still asleep");
+    assert_eq!(
+        steps(app, cloth),
+        count + 1,
+        "{name}: stepped in the same fixed step"
+    );
+    assert_eq!(seen(app), ["woke"], "{name}");
 }
 
 #[test]
@@ -330,13 +336,9 @@ fn a_moving_anchor_frame_or_wind_change_wakes_it() {
         seen(&mut app);
         trigger(&mut app, cloth, post);
         // The frame's trigger spends a step adding the frame.
-        let asleep_now = asleep(&app, cloth);
-        assert!(asleep_now, "{name}: asleep before");
+        assert!(asleep(&app, cloth), "{name}: asleep before");
         let count = steps(&app, cloth);
-        app.update();
-        assert!(!asleep(&app, cloth), "{name}: still asleep");
-        assert_eq!(steps(&app, cloth), count + 1, "{name}");
-        assert_eq!(seen(&mut app), ["woke"], "{name}");
+        wakes_in_the_next_step(&mut app, cloth, count, name);
     }
 }
 

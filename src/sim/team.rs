@@ -20,8 +20,8 @@
 //! pool, runs on its own thread alone.
 //!
 //! A helper whose core is taken by other busy threads of the process would
-//! make every barrier wait for the scheduler: a 64×64 frame then cost 5.5
-//! times its idle cost. So every shared run is timed, and a run in which
+//! make every barrier wait for the scheduler, and a 64×64 frame would cost
+//! several times its idle cost. So every shared run is timed, and a run in which
 //! the calling thread spent most of its time waiting for the helper leaves
 //! the helper alone for a while (¼ s, doubling while it stays late, up to
 //! 4 s): claims fail and the work runs on the calling thread, to the same

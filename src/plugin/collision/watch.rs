@@ -30,24 +30,25 @@ pub(crate) struct SleepWatch {
 impl SleepWatch {
     /// The colliders of `scene` (sorted by entity, with their end poses)
     /// within `bounds` that meet `layers`, into `out`; whether one of them
-    /// feels the cloth (a body that must not lose its support).
+    /// feels the cloth (a body that must not lose its support), and whether
+    /// one moves over this step by more than `tolerance` ([`moved`]).
     fn gather(
         scene: &ColliderScene,
-        bounds: (Vec3, Vec3),
-        layers: ContactLayers,
+        (bounds, layers, tolerance): ((Vec3, Vec3), ContactLayers, f32),
         out: &mut Vec<(Entity, Isometry3d)>,
-    ) -> bool {
+    ) -> (bool, bool) {
         out.clear();
-        let mut feedback = false;
+        let (mut feedback, mut moving) = (false, false);
         for c in scene.overlapping(bounds.0, bounds.1) {
             let collider = &scene.colliders[c];
             if collider.layers.interacts(layers) {
                 feedback |= collider.feedback;
+                moving |= moved(collider.start, collider.end, tolerance);
                 out.push((collider.entity, collider.end));
             }
         }
         out.sort_by_key(|(e, _)| e.to_bits());
-        feedback
+        (feedback, moving)
     }
 
     /// Remembers the scene around a cloth falling asleep within `bounds`
@@ -62,7 +63,7 @@ impl SleepWatch {
     ) -> bool {
         self.bounds = bounds;
         let mut near = std::mem::take(&mut self.near);
-        let feedback = Self::gather(scene, bounds, layers, &mut near);
+        let (feedback, _) = Self::gather(scene, (bounds, layers, f32::INFINITY), &mut near);
         self.near = near;
         self.tick = (!feedback).then_some(tick);
         !feedback
@@ -78,17 +79,13 @@ impl SleepWatch {
         tolerance: f32,
     ) -> bool {
         let mut now = std::mem::take(&mut self.now);
-        Self::gather(scene, self.bounds, layers, &mut now);
-        let changed = now.len() != self.near.len()
+        let (_, moving) = Self::gather(scene, (self.bounds, layers, tolerance), &mut now);
+        let changed = moving
+            || now.len() != self.near.len()
             || now
                 .iter()
                 .zip(&self.near)
-                .any(|(a, b)| a.0 != b.0 || moved(a.1, b.1, tolerance))
-            || scene
-                .overlapping(self.bounds.0, self.bounds.1)
-                .map(|c| &scene.colliders[c])
-                .filter(|c| c.layers.interacts(layers))
-                .any(|c| moved(c.start, c.end, tolerance));
+                .any(|(a, b)| a.0 != b.0 || moved(a.1, b.1, tolerance));
         self.now = now;
         changed
     }
