@@ -110,6 +110,20 @@ pub enum ClothError {
         /// The margin given, m.
         margin: f32,
     },
+    /// Level-of-detail distances must be finite and positive with the
+    /// freezing distance beyond the near one (m; it may be infinite), and
+    /// the rate between 1 and 16 fixed steps.
+    #[error(
+        "invalid level of detail: near {near} m, freeze {freeze} m, every {max_every} fixed steps at most"
+    )]
+    InvalidLod {
+        /// The near distance given, m.
+        near: f32,
+        /// The freezing distance given, m.
+        freeze: f32,
+        /// The largest rate given, fixed steps.
+        max_every: u32,
+    },
     /// Gravity (m/s²) must be finite.
     #[error("gravity must be finite, got {0}")]
     InvalidGravity(Vec3),

@@ -117,6 +117,7 @@ pub mod prelude {
     };
     pub use crate::plugin::frame::{ClothInertia, TeleportCloth};
     pub use crate::plugin::interaction::{ClothGrabs, GrabMode};
+    pub use crate::plugin::lod::{ClothDetail, ClothLod, ClothLodDefaults};
     pub use crate::plugin::mesh::ClothMeshSettings;
     pub use crate::plugin::mesh_builder::{ATTRIBUTE_PIN, MeshClothBuilder};
     pub use crate::plugin::mesh_cloth::MeshLayout;
@@ -132,6 +133,7 @@ pub mod prelude {
     pub use crate::sim::collision::TriMesh;
     pub use crate::sim::crease::{Crease, FoldSide};
     pub use crate::sim::guard::Divergence;
+    pub use crate::sim::lod::{Detail, LodSettings};
     pub use crate::sim::settings::{AdaptiveSubsteps, Fallback, GuardSettings};
     pub use crate::sim::wind::Wind;
     pub use crate::{

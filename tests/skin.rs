@@ -4,80 +4,10 @@
 
 mod common;
 
-use bevy::mesh::{Indices, PrimitiveTopology, VertexAttributeValues};
 use bevy::prelude::*;
 use bevy_cloth::plugin::skin::SkinTargets;
 use bevy_cloth::prelude::*;
-use common::{app, particles};
-
-const COLS: u32 = 5;
-const ROWS: u32 = 9;
-
-/// A 0.4 m × 0.8 m ribbon behind the body from y = 1.6 m down, skinned
-/// to an upper bone (joint 1; its top half) blending into the root (joint
-/// 0; its bottom half); freedom 0 on the top row, 0.5 on the next four, 1
-/// below.
-fn ribbon() -> Mesh {
-    let mut positions = Vec::new();
-    let (mut joints, mut weights, mut freedom) = (Vec::new(), Vec::new(), Vec::new());
-    for j in 0..ROWS {
-        for i in 0..COLS {
-            positions.push([-0.2 + 0.1 * i as f32, 1.6 - 0.1 * j as f32, -0.1]);
-            let t = (j as f32 - 4.0).max(0.0) / 8.0;
-            joints.push([1u16, 0, 0, 0]);
-            weights.push([1.0 - t, t, 0.0, 0.0]);
-            freedom.push(match j {
-                0 => 0.0f32,
-                1..=4 => 0.5,
-                _ => 1.0,
-            });
-        }
-    }
-    let mut indices = Vec::new();
-    for j in 0..ROWS - 1 {
-        for i in 0..COLS - 1 {
-            let a = j * COLS + i;
-            let (b, c, d) = (a + 1, a + 1 + COLS, a + COLS);
-            indices.extend([a, d, c, a, c, b]);
-        }
-    }
-    Mesh::new(PrimitiveTopology::TriangleList, default())
-        .with_inserted_attribute(Mesh::ATTRIBUTE_POSITION, positions)
-        .with_inserted_attribute(
-            Mesh::ATTRIBUTE_JOINT_INDEX,
-            VertexAttributeValues::Uint16x4(joints),
-        )
-        .with_inserted_attribute(Mesh::ATTRIBUTE_JOINT_WEIGHT, weights)
-        .with_inserted_attribute(ATTRIBUTE_FREEDOM, freedom)
-        .with_inserted_indices(Indices::U32(indices))
-}
-
-/// The skeleton (a root and an upper bone 1.2 m up, its child) and the
-/// worn ribbon with max distance `max` m.
-fn wear(app: &mut App, max: f32) -> (Entity, Entity, Entity) {
-    let root = app.world_mut().spawn(Transform::default()).id();
-    let upper = app
-        .world_mut()
-        .spawn((Transform::from_xyz(0.0, 1.2, 0.0), ChildOf(root)))
-        .id();
-    let mesh = ribbon();
-    let cloth = ClothBuilder::from_mesh(&mesh).build().unwrap();
-    let binds = [
-        Mat4::IDENTITY,
-        Mat4::from_translation(Vec3::new(0.0, -1.2, 0.0)),
-    ];
-    let layout = cloth.cloth.mesh().unwrap().clone();
-    let skin = ClothSkin::from_mesh(
-        &mesh,
-        &layout,
-        (vec![root, upper], &binds),
-        ATTRIBUTE_FREEDOM.name,
-        max,
-    )
-    .unwrap();
-    let e = app.world_mut().spawn((cloth, skin)).id();
-    (root, upper, e)
-}
+use common::{COLS, ROWS, app, particles, ribbon, wear};
 
 /// Bevy's skinning of particle `p`: `(Σ wₖ Gₖ Bₖ) rest` with the joints'
 /// propagated `GlobalTransform`s.

@@ -24,6 +24,7 @@ pub mod diagnostics;
 pub mod events;
 pub mod frame;
 pub mod interaction;
+pub mod lod;
 pub mod material;
 pub mod mesh;
 pub mod mesh_builder;
@@ -155,6 +156,11 @@ impl Plugin for ClothPlugin {
             .register_required_components::<Cloth, systems::ClothScratch>()
             .register_required_components::<Cloth, ClothStats>()
             .register_required_components::<Cloth, sleep::ClothSleep>()
+            .register_required_components::<Cloth, lod::ClothDetail>()
+            .init_resource::<lod::ClothLodDefaults>()
+            .register_type::<lod::ClothLodDefaults>()
+            .register_type::<lod::ClothLod>()
+            .register_type::<lod::ClothDetail>()
             .register_required_components::<Cloth, interaction::ClothGrabs>()
             .register_required_components::<Cloth, ClothMaterial>()
             .register_required_components::<Cloth, mesh::ClothPrevious>()
@@ -186,6 +192,8 @@ impl Plugin for ClothPlugin {
                     // A system with nothing to do is skipped by its run
                     // condition, which costs no hand-off to a pool thread.
                     (
+                        #[cfg(feature = "render")]
+                        lod::choose_detail,
                         material::apply_density.run_if(material::materials_changed),
                         frame::carry_with_frames.run_if(any_with_component::<frame::ClothInertia>),
                         anchor::follow_anchors.run_if(any_with_component::<ClothAnchors>),

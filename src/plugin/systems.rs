@@ -31,10 +31,12 @@ use crate::plugin::components::Cloth;
 use crate::plugin::components::{ClothForces, ClothStats};
 use crate::plugin::events::ClothDiverged;
 use crate::plugin::interaction::ClothGrabs;
+use crate::plugin::lod::ClothDetail;
 use crate::plugin::sleep::{Change, ClothSleep};
 use crate::plugin::tether::{ClothTethers, TetherScratch};
 use crate::plugin::wind::ClothWind;
 use crate::sim::guard::{StepInput, step_guarded};
+use crate::sim::lod::{Detail, pin_carry, ride_pins};
 use crate::sim::sleep::{RestChange, RestTracker};
 
 /// Checks what the step indexes so that user edits can never make it panic:
@@ -124,6 +126,8 @@ pub(crate) struct ClothScratch {
     pub(crate) rest: RestTracker,
     /// What a sleeping cloth watches.
     pub(crate) sleep: SleepWatch,
+    /// The mean of the forces over a combined step (level of detail), N.
+    pub(crate) mean_forces: Vec<Vec3>,
 }
 
 /// What the step reads and writes of one cloth.
@@ -140,6 +144,7 @@ pub(crate) struct StepQuery {
     scratch: &'static mut ClothScratch,
     stats: &'static mut ClothStats,
     sleep: &'static mut ClothSleep,
+    detail: &'static ClothDetail,
     collision: Option<Ref<'static, ClothCollision>>,
     layers: Option<Ref<'static, ContactLayers>>,
     self_collision: Option<(
@@ -255,6 +260,22 @@ pub(crate) fn step_cloths(
             return;
         }
         item.scratch.warned_invalid = false;
+        // Level of detail: between its steps the cloth rides its pins; on
+        // its step it takes the time of the fixed steps it combines.
+        let steps = item.detail.steps_now();
+        if steps == 0 {
+            let p = &item.particles;
+            if pin_carry(&p.positions, &p.velocities, &p.inverse_masses, dt).is_some() {
+                let p = &mut item.particles.0;
+                let w = &p.inverse_masses;
+                if let Some(carry) = ride_pins(&mut p.positions, &mut p.velocities, w, dt) {
+                    let history = &mut item.scratch.buffers.implicit;
+                    history.carry_history(&carry, |i| w[i] > 0.0);
+                }
+            }
+            return;
+        }
+        let dt = dt * steps as f32;
         item.scratch.sleep.settings = settings.sleep;
         // Sleep: a sleeping cloth stays as it is unless something could
         // move it; a woken one continues from where it slept.
@@ -337,6 +358,21 @@ pub(crate) fn step_cloths(
             feedback: &mut scratch.feedback,
             counts: Default::default(),
         });
+        let mut external = &item.forces.0[..];
+        if steps > 1 {
+            // Over a combined step the pins move as far as over one fixed
+            // step, and the forces of its fixed steps act as their mean.
+            let p = &mut item.particles.0;
+            for (v, _) in p.velocities.iter_mut().zip(&p.inverse_masses).filter(|(_, w)| **w == 0.0) {
+                *v /= steps as f32;
+            }
+            if external.iter().any(|f| *f != Vec3::ZERO) {
+                scratch.mean_forces.clear();
+                let share = 1.0 / steps as f32;
+                scratch.mean_forces.extend(external.iter().map(|f| *f * share));
+                external = &scratch.mean_forces;
+            }
+        }
         let started = Instant::now();
         let step = step_guarded(
             StepInput::new(
@@ -347,7 +383,7 @@ pub(crate) fn step_cloths(
                 &mut scratch.guard,
                 dt,
             )
-            .with_external(&item.forces.0)
+            .with_external(external)
             .with_contacts(hook.as_mut())
             .with_helper_thread(helper),
         );
@@ -414,6 +450,7 @@ pub(crate) struct WritebackQuery {
     stats: &'static mut ClothStats,
     scratch: &'static mut ClothScratch,
     sleep: &'static mut ClothSleep,
+    detail: &'static ClothDetail,
     grabs: Option<&'static ClothGrabs>,
     collision: Option<&'static ClothCollision>,
     layers: Option<&'static ContactLayers>,
@@ -445,6 +482,7 @@ pub(crate) fn finish_step(
             mut stats,
             mut scratch,
             mut sleep,
+            detail,
             grabs,
             collision,
             layers,
@@ -454,6 +492,14 @@ pub(crate) fn finish_step(
             change.trigger(entity, &mut commands);
         }
         if sleep.is_asleep() {
+            continue;
+        }
+        if detail.steps_now() == 0 {
+            // Between the steps of a reduced cloth its forces add up for
+            // its next one; a frozen cloth's are dropped.
+            if detail.detail() == Detail::Frozen && forces.0.iter().any(|f| *f != Vec3::ZERO) {
+                forces.0.fill(Vec3::ZERO);
+            }
             continue;
         }
         if forces.0.iter().any(|f| *f != Vec3::ZERO) {

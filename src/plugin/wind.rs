@@ -10,6 +10,7 @@ use bevy::prelude::{
 use bevy::time::Fixed;
 
 use crate::plugin::components::{Cloth, ClothForces, ClothParticles};
+use crate::plugin::lod::ClothDetail;
 use crate::plugin::sleep::ClothSleep;
 use crate::sim::wind::{Wind, step_wind_forces};
 
@@ -39,7 +40,13 @@ pub(crate) fn apply_wind(
     wind: Res<ClothWind>,
     mut scratch: Local<(Vec<Vec3>, Vec<f32>)>,
     mut last: Local<Option<Vec3>>,
-    mut cloths: Query<(&Cloth, &ClothParticles, &mut ClothForces, &ClothSleep)>,
+    mut cloths: Query<(
+        &Cloth,
+        &ClothParticles,
+        &mut ClothForces,
+        &ClothSleep,
+        &ClothDetail,
+    )>,
 ) {
     let air = wind.at(time.elapsed_secs());
     let dt = time.timestep().as_secs_f32();
@@ -47,8 +54,11 @@ pub(crate) fn apply_wind(
     // A wind that starts, changes or gusts reaches sleeping cloths too, and
     // its force wakes them; a steady one leaves them asleep.
     let changed = wind.is_changed() || last.replace(air) != Some(air);
-    for (cloth, particles, mut forces, sleep) in &mut cloths {
-        if sleep.is_asleep() && !changed {
+    for (cloth, particles, mut forces, sleep, detail) in &mut cloths {
+        // A reduced cloth feels the wind on the fixed steps it takes, over
+        // the fixed steps it combines (their forces act as their mean).
+        let steps = detail.steps_now();
+        if (sleep.is_asleep() && !changed) || steps == 0 {
             continue;
         }
         let n = particles.len();
@@ -65,9 +75,11 @@ pub(crate) fn apply_wind(
             &particles.velocities[..],
             &particles.inverse_masses[..],
         );
-        step_wind_forces(cloth, &wind, air, state, dt, wind_f, rates);
+        let span = dt * steps as f32;
+        step_wind_forces(cloth, &wind, air, state, span, wind_f, rates);
+        let times = steps as f32;
         for (f, w) in forces.0.iter_mut().zip(wind_f.iter()) {
-            *f += *w;
+            *f += *w * times;
         }
     }
 }

@@ -88,6 +88,12 @@ impl Carry {
         }
     }
 
+    /// The rigid motion that turns by `turn` about `from` (m) and carries
+    /// `from` to `to` (m).
+    pub fn between(from: Vec3, to: Vec3, turn: Quat) -> Self {
+        Self { from, to, turn }
+    }
+
     /// Where the point `p` (m) is carried.
     pub fn point(&self, p: Vec3) -> Vec3 {
         self.to + self.turn * (p - self.from)

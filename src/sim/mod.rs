@@ -55,6 +55,7 @@ pub mod frame;
 pub mod grid;
 pub mod guard;
 pub mod integrate;
+pub mod lod;
 pub mod material;
 pub mod model;
 pub mod particles;
