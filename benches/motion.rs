@@ -106,7 +106,9 @@ fn sheet(n: usize, edge: bool) -> ClothBundle {
 }
 
 fn main() {
-    println!("| scene | median ms | p95 ms | max ms | mean iterations | most | at the cap | strain |");
+    println!(
+        "| scene | median ms | p95 ms | max ms | mean iterations | most | at the cap | strain |"
+    );
     println!("|---|---|---|---|---|---|---|---|");
     for n in sizes(&SIZES) {
         report(&format!("grid {n}×{n}"), run(sheet(n, false), None));
@@ -124,5 +126,8 @@ fn main() {
         gust_frequency: 0.5,
         ..default()
     };
-    report("grid 64×64, 15 m/s gusts", run(sheet(64, true), Some(gusty)));
+    report(
+        "grid 64×64, 15 m/s gusts",
+        run(sheet(64, true), Some(gusty)),
+    );
 }

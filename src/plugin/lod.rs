@@ -53,7 +53,9 @@
 //! }
 //! ```
 
-use bevy::prelude::{Component, Reflect, ReflectComponent, ReflectDefault, ReflectResource, Resource};
+use bevy::prelude::{
+    Component, Reflect, ReflectComponent, ReflectDefault, ReflectResource, Resource,
+};
 
 use crate::sim::lod::{Detail, LodSettings, Pacer};
 
@@ -108,6 +110,12 @@ impl ClothDetail {
     /// one; not counted while frozen).
     pub fn waited_steps(&self) -> u32 {
         self.pacer.waited()
+    }
+
+    /// After the cloth's step: its largest Type 1 strain (dimensionless)
+    /// sets how many fixed steps it may combine ([`Pacer::stepped`]).
+    pub(crate) fn stepped(&mut self, strain: f32) {
+        self.pacer.stepped(self.steps, strain);
     }
 
     /// Distance from the nearest active camera to the cloth's box, m
@@ -195,6 +203,7 @@ mod choose {
             }
             // The entity's index spreads cloths of one rate over the steps.
             let phase = entity.index_u32();
+            let level = detail.pacer.limited(level);
             detail.steps = detail.pacer.tick(level, *clock, phase);
             detail.detail = level;
         }

@@ -276,6 +276,18 @@ pub(crate) fn step_cloths(
             return;
         }
         let dt = dt * steps as f32;
+        // A combined step of `k` fixed steps is solved to a relative
+        // tolerance `k` times looser: a reduced cloth is `k/2` to `k` times
+        // farther than `near`, or out of view.
+        let relaxed;
+        let settings = if steps > 1 {
+            let mut own = settings.clone();
+            own.implicit.tolerance = (own.implicit.tolerance * steps as f32).min(0.1);
+            relaxed = own;
+            &relaxed
+        } else {
+            settings
+        };
         item.scratch.sleep.settings = settings.sleep;
         // Sleep: a sleeping cloth stays as it is unless something could
         // move it; a woken one continues from where it slept.
@@ -363,13 +375,20 @@ pub(crate) fn step_cloths(
             // Over a combined step the pins move as far as over one fixed
             // step, and the forces of its fixed steps act as their mean.
             let p = &mut item.particles.0;
-            for (v, _) in p.velocities.iter_mut().zip(&p.inverse_masses).filter(|(_, w)| **w == 0.0) {
+            for (v, _) in p
+                .velocities
+                .iter_mut()
+                .zip(&p.inverse_masses)
+                .filter(|(_, w)| **w == 0.0)
+            {
                 *v /= steps as f32;
             }
             if external.iter().any(|f| *f != Vec3::ZERO) {
                 scratch.mean_forces.clear();
                 let share = 1.0 / steps as f32;
-                scratch.mean_forces.extend(external.iter().map(|f| *f * share));
+                scratch
+                    .mean_forces
+                    .extend(external.iter().map(|f| *f * share));
                 external = &scratch.mean_forces;
             }
         }
@@ -450,7 +469,7 @@ pub(crate) struct WritebackQuery {
     stats: &'static mut ClothStats,
     scratch: &'static mut ClothScratch,
     sleep: &'static mut ClothSleep,
-    detail: &'static ClothDetail,
+    detail: &'static mut ClothDetail,
     grabs: Option<&'static ClothGrabs>,
     collision: Option<&'static ClothCollision>,
     layers: Option<&'static ContactLayers>,
@@ -482,7 +501,7 @@ pub(crate) fn finish_step(
             mut stats,
             mut scratch,
             mut sleep,
-            detail,
+            mut detail,
             grabs,
             collision,
             layers,
@@ -516,6 +535,7 @@ pub(crate) fn finish_step(
             stats.finite = particles.is_finite();
             stats.max_speed = f32::NAN;
         }
+        detail.stepped(stats.max_strain);
         let grabbed = grabs.map_or(0.0, |g| {
             g.grabs()
                 .iter()

@@ -27,7 +27,7 @@ pub const MAX_EVERY: u32 = 16;
 /// let lod = LodSettings::default();
 /// assert_eq!(lod.detail(Some(5.0), true), Detail::Full);
 /// assert_eq!(lod.detail(Some(30.0), true), Detail::Every(2));
-/// assert_eq!(lod.detail(Some(5.0), false), Detail::Every(4));
+/// assert_eq!(lod.detail(Some(5.0), false), Detail::Every(8));
 /// assert_eq!(lod.detail(Some(150.0), true), Detail::Frozen);
 /// assert_eq!(lod.detail(None, false), Detail::Full); // no camera
 /// ```
@@ -46,7 +46,15 @@ pub struct LodSettings {
     /// `f32::INFINITY` never freezes).
     pub freeze: f32,
     /// The most fixed steps combined into one step (1 to [`MAX_EVERY`]),
-    /// and the rate of a cloth no camera sees (within `freeze`).
+    /// and the rate of a cloth no camera sees (within `freeze`). A
+    /// combined step of `k` fixed steps is solved to a relative tolerance
+    /// `k` times the cloth's
+    /// [`ImplicitParams::tolerance`](crate::sim::settings::ImplicitParams::tolerance)
+    /// (at most 0.1; the cloth is `k/2` to `k` times farther than `near`,
+    /// or unseen) within `1/k` of its
+    /// [`max_iterations`](crate::sim::settings::ImplicitParams::max_iterations)
+    /// (at least 10): per second, its solve spends no more than a cloth
+    /// stepping every fixed step may.
     pub max_every: u32,
 }
 
@@ -56,7 +64,7 @@ impl Default for LodSettings {
             enabled: true,
             near: 20.0,
             freeze: 100.0,
-            max_every: 4,
+            max_every: 8,
         }
     }
 }
@@ -119,17 +127,67 @@ pub enum Detail {
     Frozen,
 }
 
+/// A combined step that leaves a Type 1 link strained past this
+/// (dimensionless) halves the steps the cloth may combine.
+pub const LOD_STRAIN: f32 = 0.1;
+/// Fixed steps a cloth must stay under [`LOD_STRAIN`] before the steps it
+/// may combine double (half a second at 60 Hz).
+pub const LOD_CALM_STEPS: u32 = 30;
+
 /// Which fixed steps a cloth takes at its [`Detail`], and how many fixed
 /// steps each combines.
+///
+/// A long step is less accurate where the cloth moves fast (a storm, a
+/// flick, a fall from rest), so how many fixed steps it may combine is
+/// earned: a new cloth starts at 1, the number doubles after every
+/// [`LOD_CALM_STEPS`] fixed steps whose steps kept its strain under
+/// [`LOD_STRAIN`], up to [`MAX_EVERY`], and halves after a step that did
+/// not ([`stepped`](Self::stepped)).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Reflect)]
 pub struct Pacer {
     /// Fixed steps since its last step (dropped while frozen).
     waited: u32,
+    /// Most fixed steps it may combine now, less one (so 0 by default).
+    limit: u32,
+    /// Calm fixed steps since the limit last changed.
+    calm: u32,
 }
 
 impl Pacer {
-    /// One fixed step at `detail`: how many fixed steps' time the cloth
-    /// steps now (0: it skips this one). `clock` counts fixed steps and
+    /// Most fixed steps the cloth may combine now.
+    pub fn limit(&self) -> u32 {
+        self.limit + 1
+    }
+
+    /// `detail` within what the cloth may combine now.
+    pub fn limited(&self, detail: Detail) -> Detail {
+        match detail {
+            Detail::Every(k) if k.min(self.limit()) <= 1 => Detail::Full,
+            Detail::Every(k) => Detail::Every(k.min(self.limit())),
+            other => other,
+        }
+    }
+
+    /// After a step of `steps` fixed steps that left the cloth at `strain`
+    /// (its largest Type 1 strain, dimensionless; NaN counts as too much).
+    pub fn stepped(&mut self, steps: u32, strain: f32) {
+        let calm = strain <= LOD_STRAIN; // false for NaN
+        if !calm {
+            let combined = self.limit().min(steps.max(1));
+            self.limit = (combined / 2).max(1) - 1;
+            self.calm = 0;
+            return;
+        }
+        self.calm += steps.max(1);
+        if self.calm >= LOD_CALM_STEPS {
+            self.limit = (2 * self.limit() - 1).min(MAX_EVERY - 1);
+            self.calm = 0;
+        }
+    }
+
+    /// One fixed step at `detail` (already [`limited`](Self::limited)):
+    /// how many fixed steps' time the cloth steps now (0: it skips this
+    /// one). `clock` counts fixed steps and
     /// `phase` spreads cloths of the same rate over different fixed steps.
     /// A cloth back at [`Detail::Full`] catches up the steps it waited in
     /// one step.
@@ -143,10 +201,14 @@ impl Pacer {
             Detail::Full => true,
             Detail::Every(k) => {
                 let k = k.clamp(1, MAX_EVERY);
-                self.waited >= k || (clock + u64::from(phase)) % u64::from(k) == 0
+                self.waited >= k || (clock + u64::from(phase)).is_multiple_of(u64::from(k))
             }
         };
-        if due { std::mem::take(&mut self.waited) } else { 0 }
+        if due {
+            std::mem::take(&mut self.waited)
+        } else {
+            0
+        }
     }
 
     /// Fixed steps since the cloth's last step.
@@ -212,7 +274,11 @@ fn rotation_of(a: Mat3) -> Quat {
     let mut q = Quat::IDENTITY;
     for _ in 0..32 {
         let r = Mat3::from_quat(q);
-        let axes = [(r.x_axis, a.x_axis), (r.y_axis, a.y_axis), (r.z_axis, a.z_axis)];
+        let axes = [
+            (r.x_axis, a.x_axis),
+            (r.y_axis, a.y_axis),
+            (r.z_axis, a.z_axis),
+        ];
         let torque: Vec3 = axes.iter().map(|(r, a)| r.cross(*a)).sum();
         let along: f32 = axes.iter().map(|(r, a)| r.dot(*a)).sum();
         let omega = torque / (along.abs() + 1e-12);
@@ -352,6 +418,42 @@ mod tests {
     }
 
     #[test]
+    fn a_cloth_earns_its_combined_steps_and_loses_them_when_it_stretches() {
+        let mut pacer = Pacer::default();
+        assert_eq!(pacer.limited(Detail::Every(8)), Detail::Full);
+        let calm = |pacer: &mut Pacer, steps: u32| {
+            for _ in 0..steps {
+                pacer.stepped(1, 0.01);
+            }
+        };
+        calm(&mut pacer, LOD_CALM_STEPS);
+        assert_eq!(pacer.limited(Detail::Every(8)), Detail::Every(2));
+        calm(&mut pacer, 2 * LOD_CALM_STEPS);
+        assert_eq!(pacer.limited(Detail::Every(8)), Detail::Every(8));
+        assert_eq!(pacer.limited(Detail::Every(2)), Detail::Every(2));
+        assert_eq!(pacer.limited(Detail::Frozen), Detail::Frozen);
+        // A step of 8 that over-stretches: at most 4 from now on.
+        pacer.stepped(8, 0.3);
+        assert_eq!(pacer.limit(), 4);
+        pacer.stepped(4, f32::NAN);
+        assert_eq!(pacer.limit(), 2);
+        pacer.stepped(2, 0.2);
+        pacer.stepped(1, 0.2);
+        assert_eq!(pacer.limited(Detail::Every(8)), Detail::Full);
+        // Combined steps count their fixed steps towards the calm.
+        calm(&mut pacer, LOD_CALM_STEPS);
+        assert_eq!(pacer.limit(), 2);
+        for _ in 0..(LOD_CALM_STEPS / 2) {
+            pacer.stepped(2, 0.0);
+        }
+        assert_eq!(pacer.limit(), 4);
+        for _ in 0..100 {
+            pacer.stepped(8, 0.0);
+        }
+        assert_eq!(pacer.limit(), MAX_EVERY);
+    }
+
+    #[test]
     fn pins_carry_the_cloth_rigidly() {
         let turn = Quat::from_rotation_y(0.3);
         let shift = Vec3::new(0.5, 0.1, -0.2);
@@ -399,7 +501,13 @@ mod tests {
         assert!(seen(Vec3::ONE, Vec3::splat(2.0)));
         assert!(seen(Vec3::splat(-1.0), Vec3::splat(0.5)));
         assert!(!seen(Vec3::new(-3.0, 1.0, 0.0), Vec3::new(-1.0, 2.0, 0.0)));
-        assert_eq!(distance_to_box(Vec3::new(3.0, 0.5, 0.0), (Vec3::ZERO, Vec3::ONE)), 2.0);
-        assert_eq!(distance_to_box(Vec3::splat(0.5), (Vec3::ZERO, Vec3::ONE)), 0.0);
+        assert_eq!(
+            distance_to_box(Vec3::new(3.0, 0.5, 0.0), (Vec3::ZERO, Vec3::ONE)),
+            2.0
+        );
+        assert_eq!(
+            distance_to_box(Vec3::splat(0.5), (Vec3::ZERO, Vec3::ONE)),
+            0.0
+        );
     }
 }
