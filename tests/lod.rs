@@ -50,6 +50,24 @@ fn until(app: &mut App, cloth: Entity, level: Detail) {
     panic!("{cloth} never reached {level:?}: {:?}", detail(app, cloth));
 }
 
+/// Runs until `cloth` has waited `k` fixed steps since its last step, at
+/// most 300 fixed steps.
+fn until_waited(app: &mut App, cloth: Entity, k: u32) {
+    for _ in 0..300 {
+        if app
+            .world()
+            .get::<ClothDetail>(cloth)
+            .unwrap()
+            .waited_steps()
+            == k
+        {
+            return;
+        }
+        app.update();
+    }
+    panic!("{cloth} never waited {k} fixed steps");
+}
+
 /// The largest distance a particle moved between `a` and `b`, m.
 fn jump(a: &[Vec3], b: &[Vec3]) -> f32 {
     a.iter()
@@ -245,15 +263,7 @@ fn forces_written_between_the_steps_of_a_reduced_cloth_act_on_its_next_step() {
         }
     };
     // An impulse of 25 × 2 N over one fixed step.
-    while app
-        .world()
-        .get::<ClothDetail>(cloths[0])
-        .unwrap()
-        .waited_steps()
-        != 1
-    {
-        app.update();
-    }
+    until_waited(&mut app, cloths[0], 1);
     push(&mut app, Vec3::X * 2.0);
     for _ in 0..8 {
         app.update();
@@ -270,15 +280,7 @@ fn forces_written_between_the_steps_of_a_reduced_cloth_act_on_its_next_step() {
         push(&mut app, Vec3::Y * 0.5);
         app.update();
     }
-    while app
-        .world()
-        .get::<ClothDetail>(cloths[0])
-        .unwrap()
-        .waited_steps()
-        != 0
-    {
-        app.update();
-    }
+    until_waited(&mut app, cloths[0], 0);
     let given = 25.0 * 0.5 * 40.0 * DT;
     let p = cloths.map(|e| momentum(&app, e));
     eprintln!("steady {given}: momentum {p:?}");

@@ -265,13 +265,12 @@ pub(crate) fn step_cloths(
         let steps = item.detail.steps_now();
         if steps == 0 {
             let p = &item.particles;
-            if pin_carry(&p.positions, &p.velocities, &p.inverse_masses, dt).is_some() {
+            if let Some(carry) = pin_carry(&p.positions, &p.velocities, &p.inverse_masses, dt) {
                 let p = &mut item.particles.0;
                 let w = &p.inverse_masses;
-                if let Some(carry) = ride_pins(&mut p.positions, &mut p.velocities, w, dt) {
-                    let history = &mut item.scratch.buffers.implicit;
-                    history.carry_history(&carry, |i| w[i] > 0.0);
-                }
+                ride_pins(&carry, &mut p.positions, &mut p.velocities, w, dt);
+                let history = &mut item.scratch.buffers.implicit;
+                history.carry_history(&carry, |i| w[i] > 0.0);
             }
             return;
         }
