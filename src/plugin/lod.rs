@@ -24,7 +24,7 @@
 //!   so a new cloth starts at one fixed step a step, and the number it
 //!   may combine doubles after every half second of steps that kept its
 //!   strain under 10 % and halves after a step that did not
-//!   ([`Pacer`](crate::sim::lod::Pacer)). [`ClothDetail::detail`] is the
+//!   ([`Pacer`]). [`ClothDetail::detail`] is the
 //!   level it steps at.
 //! - **Frozen** ([`Detail::Frozen`], beyond [`LodSettings::freeze`]): the
 //!   cloth is not stepped, only carried by its pins; the time it misses is
