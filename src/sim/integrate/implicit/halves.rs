@@ -6,12 +6,10 @@
 //!
 //! 1. `q = A d` (the gathered product reads `d` across the cut) and
 //!    `dᵀq`, summed over both halves at a barrier;
-//! 2. `Δv += αd`, `r −= αq`, `y = B⁻¹r`, and `Rᵀr` of the half's bands of
-//!    aggregates (the cut lies at the coarse factor's separator band, the
-//!    upper half's first) and the forward substitution of its side of the
-//!    coarse factor; a barrier, the separator's small dense solve on the
-//!    helper, a barrier, then the side's backward substitution and
-//!    `y += Re` over the half's bands;
+//! 2. `Δv += αd`, `r −= αq`, `y = B⁻¹r`, and `R₁ᵀr` of the half's bands
+//!    of first-level aggregates (the cut lies between two bands); a
+//!    barrier, the V-cycle over the coarser levels on the helper, a
+//!    barrier, then `y += R₁e` over the half's bands;
 //! 3. `rᵀy`, summed at a barrier; `d = y + βd`; a barrier.
 //!
 //! Every value is formed by the same operations as on one thread, and the
@@ -21,7 +19,9 @@
 
 use std::ops::Range;
 
-use super::coarse::Coarse;
+use bevy::math::Vec3A;
+
+use super::coarse::{Coarse, LevelWork};
 use super::operator::{Operator, Soa, dot_parts};
 use crate::sim::team::{Claim, Team};
 use crate::simd::{self, Level};
@@ -111,7 +111,7 @@ impl Halves {
         let kernel = kernel()?;
         let (at, band) = match coarse {
             Some(c) if c.bands() >= 2 => {
-                let band = c.separator_band();
+                let band = c.bands() / 2;
                 (c.band_rows(band, n).start, band)
             }
             Some(_) => return None,
@@ -141,9 +141,8 @@ fn kernel() -> Option<Level> {
 }
 
 /// The vectors of one solve, shared by both threads. Each pass writes only
-/// its own half of a vector (of `rc`, its side of the coarse factor), and
-/// reads the other half only after a barrier that follows the other
-/// thread's writes.
+/// its own half of a vector (of `rc`, its own bands), and reads the other
+/// half only after a barrier that follows the other thread's writes.
 struct Shared<'a> {
     op: &'a Operator,
     coarse: Option<&'a Coarse>,
@@ -155,8 +154,12 @@ struct Shared<'a> {
     q: [*mut f32; 3],
     /// `d`, padded for the product: `pad` zeros before its first value.
     padded: [*mut f32; 3],
-    rc: (*mut f64, usize),
+    /// The first level's right-hand side and correction
+    /// ([`Scratch::top`](super::coarse::Scratch::top)).
+    rc: [(*mut Vec3A, usize); 2],
     rows: [(*mut f32, usize); 2],
+    /// The V-cycle's vectors ([`Scratch::work`](super::coarse::Scratch::work)), the helper's alone.
+    work: (*mut LevelWork, usize),
     /// `δ` of the start, `δ₀`, `ε²` and the iteration cap.
     start: (f64, f64, f64, u32),
 }
@@ -187,14 +190,17 @@ pub(super) fn iterate(
         assert!(v.0.iter().all(|c| c.len() == n));
     }
     let mut scratch = coarse.as_deref_mut().map(Coarse::take_scratch);
-    let rc = scratch
-        .as_mut()
-        .map_or((std::ptr::null_mut(), 0), |(rc, _)| {
-            (rc.as_mut_ptr(), rc.len())
-        });
-    let rows = match &mut scratch {
-        Some((_, rows)) => rows.each_mut().map(|r| (r.as_mut_ptr(), r.len())),
-        None => [(std::ptr::null_mut(), 0); 2],
+    let (rc, rows, work) = match &mut scratch {
+        Some(s) => (
+            s.top.each_mut().map(|v| (v.as_mut_ptr(), v.len())),
+            s.rows.each_mut().map(|r| (r.as_mut_ptr(), r.len())),
+            (s.work.as_mut_ptr(), s.work.len()),
+        ),
+        None => (
+            [(std::ptr::null_mut(), 0); 2],
+            [(std::ptr::null_mut(), 0); 2],
+            (std::ptr::null_mut(), 0),
+        ),
     };
     let ptrs = |v: &mut Soa| v.0.each_mut().map(|c| c.as_mut_ptr());
     let shared = Shared {
@@ -213,6 +219,7 @@ pub(super) fn iterate(
             .map(|c| unsafe { c.as_mut_ptr().add(pad) }),
         rc,
         rows,
+        work,
         start: (delta, delta0, tol2, max_iterations),
     };
     let result = claim.run(|team, part| {
@@ -332,74 +339,57 @@ unsafe fn body(s: &Shared, team: &Team, part: usize) -> (u32, f64) {
     (iterations, delta)
 }
 
-/// `y += R A_c⁻¹ Rᵀ r` with the bands split at the separator band `band`
-/// ([`Coarse::pieces`]): this thread's bands restricted and its side's
-/// forward substitution; a barrier, the separator's small dense solve on
-/// thread 1 (which holds the separator band), a barrier; this thread's
-/// side's backward substitution and its bands prolonged.
+/// `y += R₁ V₁(R₁ᵀ r)` with the bands split at `band`: this thread's
+/// bands restricted; a barrier, the V-cycle on thread 1, a barrier; this
+/// thread's bands prolonged.
 ///
 /// # Safety
 /// As for [`body`]; `r` of this half is settled.
 #[inline(always)]
 unsafe fn coarse_half(s: &Shared, c: &Coarse, team: &Team, part: usize, band: usize) {
     let bands = if part == 0 { 0..band } else { band..c.bands() };
-    let (rc, length) = s.rc;
+    let [(top, length), (correction, _)] = s.rc;
     let (row, row_length) = s.rows[part];
     // SAFETY: each thread has its own row.
     let sums = unsafe { std::slice::from_raw_parts_mut(row, row_length) };
-    // The pieces of `rc`: the lower bands and the scratch after all bands
-    // are thread 0's, the separator and upper bands thread 1's, but for
-    // the reads noted below.
-    let [lower, separator, upper, tail] = c.pieces();
-    debug_assert_eq!(length, tail.end);
-    let per_band = separator.len();
-    // SAFETY (of each use): `rc` holds `length` values; the piece is the
-    // thread's own, or read by both while neither writes it.
-    let piece = |range: Range<usize>| unsafe {
-        std::slice::from_raw_parts_mut(rc.add(range.start), range.len())
-    };
+    let per_band = c.per_band();
     for j in bands.clone() {
         let rows = c.band_rows(j, s.n);
-        // SAFETY: band j's particles are in this half; its entries of `rc`
-        // are this thread's alone in this pass.
+        // SAFETY: band j's particles are in this half; its entries of the
+        // right-hand side are this thread's alone in this pass.
         let (r, rc) = unsafe {
             (
                 slices(s.r, &rows),
-                std::slice::from_raw_parts_mut(rc.add(j * per_band), per_band),
+                std::slice::from_raw_parts_mut(top.add(j * per_band), per_band),
             )
         };
         c.restrict_band(r, rc, sums);
     }
-    if part == 0 {
-        c.forward_lower(piece(lower.clone()), piece(tail.clone()));
-    } else {
-        c.forward_upper(piece(upper.clone()), piece(separator.clone()));
-    }
     team.barrier(part);
     if part == 1 {
-        // Thread 0 wrote `tail` before the barrier and leaves it alone
-        // until the next iteration's.
-        c.solve_separator(piece(separator.clone()), piece(tail));
+        // SAFETY: both threads wrote their bands of the right-hand side
+        // before the barrier and leave it alone until the next iteration's
+        // restriction; the correction and the cycle's vectors are this
+        // thread's alone until the next barrier.
+        unsafe {
+            let r = std::slice::from_raw_parts(top, length);
+            let e = std::slice::from_raw_parts_mut(correction, length);
+            let work = std::slice::from_raw_parts_mut(s.work.0, s.work.1);
+            c.cycle(r, e, work);
+        }
     }
     team.barrier(part);
-    // Both read the separator, settled until the next iteration's
-    // restriction, several barriers on.
-    let settled = &*piece(separator);
-    if part == 0 {
-        c.backward_lower(piece(lower), settled);
-    } else {
-        c.backward_upper(piece(upper), settled);
-    }
     for j in bands {
         let rows = c.band_rows(j, s.n);
         // SAFETY: band j's particles are in this half (this thread writes
-        // their `y`); `rc` is only read until the next iteration's barrier.
-        let (rc, y) = unsafe {
+        // their `y`); the correction is only read until the next
+        // iteration's cycle, two barriers on.
+        let (e, y) = unsafe {
             (
-                std::slice::from_raw_parts(rc.add(j * per_band), per_band),
+                std::slice::from_raw_parts(correction.add(j * per_band), per_band),
                 slices_mut(s.y, &rows),
             )
         };
-        c.prolong_band(rc, y, &s.op.free[rows], sums);
+        c.prolong_band(e, y, &s.op.free[rows], sums);
     }
 }

@@ -1,21 +1,5 @@
-//! The factored coarse operator `A_c`, ordered so that its solve splits
-//! between two threads.
-//!
-//! The bands of aggregates are cut at a separator band `S`: the bands
-//! below it (`L`) couple to the bands above it (`U`) only through `S`.
-//! With the unknowns ordered `L`, `U` (bands reversed), `S`,
-//!
-//! `A_c = [A_LL 0 A_LS; 0 A_UU A_US; A_SL A_SU A_SS] = L Lᵀ`,
-//! `L = [L_L 0 0; 0 L_U 0; X_Lᵀ X_Uᵀ L_S]`,
-//!
-//! with `L_L`, `L_U` banded Cholesky factors, `X = L⁻¹ A_·S` (non-zero only
-//! in the rows of the band next to `S`, as `A_·S` is) and `L_S` the dense
-//! factor of the Schur complement `A_SS − X_LᵀX_L − X_UᵀX_U`. The solve's
-//! substitutions through `L_L` and `L_U` are independent: one thread takes
-//! each, and only the small dense one through `L_S` runs alone. `U`'s
-//! bands go in reverse so that its band next to `S` comes last in `L_U`,
-//! as `L`'s does in `L_L`: each `X` then has as many rows as a band. One
-//! band's worth of a 64×64 cloth's coarse grid is 24 unknowns of 192.
+//! The banded Cholesky factor that solves the coarsest level of the
+//! multigrid hierarchy exactly, in f64.
 
 /// A banded Cholesky factor `L` (`A = L Lᵀ`) in f64 of a matrix with a
 /// multiple of 3 rows and a half-bandwidth of at least 2 (scalar rows).
@@ -43,11 +27,6 @@ impl Banded {
         (self.size, self.bandwidth) = (size, bandwidth);
         self.band.clear();
         self.band.resize(size * (bandwidth + 1), 0.0);
-    }
-
-    /// Rows of the matrix.
-    pub(super) fn size(&self) -> usize {
-        self.size
     }
 
     /// Sets `A[r][c]` for `r ≥ c`, `r − c ≤ bandwidth`.
@@ -185,101 +164,3 @@ impl Banded {
         }
     }
 }
-
-/// A dense symmetric positive definite matrix in f64 (the separator's
-/// Schur complement), factored and then inverted: a product by the
-/// inverse is one pass of independent sums, where the two substitutions
-/// were a chain of dependent ones (0.6 µs a solve for 24 unknowns).
-#[derive(Clone, Debug, Default)]
-pub(super) struct Dense {
-    size: usize,
-    /// `A`, then `L` in its lower triangle.
-    a: Vec<f64>,
-    /// `A⁻¹`, row-major.
-    inverse: Vec<f64>,
-}
-
-impl Dense {
-    /// Starts a zero matrix of `size` rows.
-    pub(super) fn reset(&mut self, size: usize) {
-        self.size = size;
-        self.a.clear();
-        self.a.resize(size * size, 0.0);
-    }
-
-    /// Adds `value` to `A[r][c]`, `r ≥ c` (only the lower triangle is read).
-    pub(super) fn add(&mut self, r: usize, c: usize, value: f64) {
-        self.a[r * self.size + c] += value;
-    }
-
-    /// Factors the matrix in place and inverts it; `false` on a pivot that
-    /// is not positive.
-    pub(super) fn factor(&mut self) -> bool {
-        let n = self.size;
-        for j in 0..n {
-            let mut d = self.a[j * n + j];
-            for k in 0..j {
-                d -= self.a[j * n + k] * self.a[j * n + k];
-            }
-            if d.is_nan() || d <= 0.0 {
-                return false;
-            }
-            let d = d.sqrt();
-            self.a[j * n + j] = d;
-            for i in j + 1..n {
-                let mut s = self.a[i * n + j];
-                for k in 0..j {
-                    s -= self.a[i * n + k] * self.a[j * n + k];
-                }
-                self.a[i * n + j] = s / d;
-            }
-        }
-        // A⁻¹ = L⁻ᵀ L⁻¹ I, both substitutions a whole row at a time (runs
-        // of independent sums, where a column at a time chained them).
-        let (l, x) = (&self.a, &mut self.inverse);
-        x.clear();
-        x.resize(n * n, 0.0);
-        for i in 0..n {
-            x[i * n + i] = 1.0;
-        }
-        for k in 0..n {
-            let (done, rest) = x.split_at_mut((k + 1) * n);
-            let row = &mut done[k * n..];
-            let pivot = l[k * n + k];
-            row.iter_mut().for_each(|v| *v /= pivot);
-            for (i, target) in (k + 1..n).zip(rest.chunks_exact_mut(n)) {
-                let lik = l[i * n + k];
-                for (t, &r) in target.iter_mut().zip(&*row) {
-                    *t -= lik * r;
-                }
-            }
-        }
-        for i in (0..n).rev() {
-            let (before, from) = x.split_at_mut(i * n);
-            let row = &mut from[..n];
-            let pivot = l[i * n + i];
-            row.iter_mut().for_each(|v| *v /= pivot);
-            for (k, target) in before.chunks_exact_mut(n).enumerate() {
-                let lik = l[i * n + k];
-                for (t, &r) in target.iter_mut().zip(&*row) {
-                    *t -= lik * r;
-                }
-            }
-        }
-        true
-    }
-
-    /// `x = A⁻¹ x` (`x` of at most [`MAX_DENSE`] values).
-    #[inline(always)]
-    pub(super) fn solve(&self, x: &mut [f64]) {
-        let n = self.size;
-        let mut y = [0.0; MAX_DENSE];
-        for (y, row) in y.iter_mut().zip(self.inverse.chunks_exact(n)) {
-            *y = row.iter().zip(&*x).map(|(a, b)| a * b).sum();
-        }
-        x.copy_from_slice(&y[..n]);
-    }
-}
-
-/// The most unknowns of a [`Dense`] solve.
-pub(super) const MAX_DENSE: usize = 3 * super::COARSE_SIDE;
