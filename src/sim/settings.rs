@@ -116,15 +116,17 @@ pub enum SlackStiffness {
 pub struct ImplicitParams {
     /// Relative tolerance ε of the preconditioned conjugate gradient: stop
     /// when `rᵀP⁻¹r ≤ ε² bᵀP⁻¹b` (dimensionless; MODEL.md §6.5 uses 1e-3).
+    /// `rᵀP⁻¹r` is close to the error's energy `Σ m|δv|² + Σ k δℓ²` (J):
+    /// the solve stops once its error is worth a thousandth of the step's
+    /// velocity change (docs/architecture.md, "The implicit solve").
     pub tolerance: f32,
     /// Absolute tolerance of the solve in m/s: it also stops once the
-    /// mass-weighted RMS error of the velocity change is below this
-    /// (`rᵀP⁻¹r ≤ v_tol² Σm`, as `P` is mostly the mass). A cloth at or
-    /// near rest asks for almost no change, and the relative tolerance
-    /// alone would then chase digits that move nothing: the default
-    /// 1 mm/s is 17 µm in a 1/60 s step. A cloth draped on a ball then
-    /// needs about a quarter of the iterations while it settles, and the
-    /// same drape (tested).
+    /// error is worth no more than the whole cloth moving at this speed
+    /// (`rᵀP⁻¹r ≤ v_tol² Σm`). A cloth at or near rest asks for almost no
+    /// change, and the relative tolerance alone would then chase digits
+    /// that move nothing: the default 1 mm/s is 17 µm in a 1/60 s step. A
+    /// cloth draped on a ball then needs about a quarter of the iterations
+    /// while it settles, and the same drape (tested).
     pub velocity_tolerance: f32,
     /// Most conjugate-gradient iterations per step.
     pub max_iterations: u32,
@@ -133,12 +135,13 @@ pub struct ImplicitParams {
     /// Slack Type 1 stiffness.
     pub slack_stiffness: SlackStiffness,
     /// Whether the preconditioner adds a coarse correction
-    /// ([`implicit`](crate::sim::integrate::implicit)): it cuts the
-    /// conjugate-gradient iterations of a stiff cloth several times over
-    /// (52 → 23 on 15×15 cotton at 1/60 s, 100+ → 34 on 48×48; 36 → 17 on
-    /// a 3,997-particle mesh disc). Over grid squares for grid cloths of
-    /// at least 4×4, over groups of linked particles for mesh cloths of at
-    /// least 64 particles; smaller cloths solve without it. On by default.
+    /// ([`implicit`](crate::sim::integrate::implicit)): for grid cloths of
+    /// at least 4×4 a multigrid V-cycle over squares of 2 × 2 particles,
+    /// 4 × 4 and so on, which keeps the iterations of a cloth in motion
+    /// about the same from 32×32 to 256×256 (13 to 26 a frame); for mesh
+    /// cloths of at least 64 particles a two-level correction over groups
+    /// of linked particles (36 → 17 iterations on a 3,997-particle disc).
+    /// Smaller cloths solve without it. On by default.
     pub coarse_grid: bool,
     /// Whether a grid cloth of at least 2048 particles shares the passes
     /// of its conjugate gradient with a helper thread
@@ -157,7 +160,10 @@ pub struct ImplicitParams {
     /// a slack sheet) is solved again where it ended. 0 turns it off.
     pub newton_iterations: u32,
     /// The Type 1 strain (dimensionless) above which a step gets its extra
-    /// Newton iterations, if it also grew by a fifth since the last step.
+    /// Newton iterations, if it also grew by a fifth since the last step;
+    /// their solves use tolerances ten times tighter
+    /// ([`NEWTON_TOLERANCE`](crate::sim::integrate::implicit::NEWTON_TOLERANCE)).
+    /// 5 % by default: a sheet swinging from two corners stays under it.
     pub newton_strain: f32,
 }
 
@@ -172,7 +178,7 @@ impl Default for ImplicitParams {
             coarse_grid: true,
             helper_thread: true,
             newton_iterations: 3,
-            newton_strain: 0.25,
+            newton_strain: 0.05,
         }
     }
 }
