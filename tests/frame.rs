@@ -119,9 +119,12 @@ fn a_cape_on_a_body_spinning_at_20_rad_s_stays_within_10_percent() {
             100.0 * felt,
             100.0 * welded
         );
+        // Simulated in the world, the spin stretches the cape: its Newton
+        // corrections and quiet substeps hold it to a few per cent, and
+        // feeling the frame takes most of that away.
         assert!(
-            world > 0.2,
-            "{integrator:?}: the spin should stretch it: {world}"
+            world > 0.03 && world > 2.5 * felt,
+            "{integrator:?}: the spin should stretch it: {world} against {felt} feeling the frame"
         );
         assert!(felt < 0.1, "{integrator:?}: {felt}");
         assert!(welded < 0.005, "{integrator:?}: {welded}");

@@ -19,7 +19,16 @@
 //!    [`GuardSettings::max_boost`] times the substeps the cloth asked for;
 //!    the last retry switches to the [`GuardSettings::fallback`] integrator
 //!    (backward Euler by default, stable at any step).
-//! 4. **Never frozen.** If the last retry still trips on a finite state
+//! 4. **Strain spikes.** An implicit step that strained a Type 1 link past
+//!    [`SPIKE_STRAIN`] and [`SPIKE_GROWTH`] times what the last step left,
+//!    after its Newton corrections, did so because it was linearised where
+//!    it started: a stiff or fine sheet let go horizontal pulls on its
+//!    pins with no stiffness across its plane in the linearisation, and a
+//!    256×256 cotton sheet's first step stretched its corner links 21 %.
+//!    Such a step is undone and redone in twice the substeps, up to
+//!    [`SPIKE_SUBSTEPS`], quietly (no message: nothing diverged), and the
+//!    boost relaxes as below.
+//! 5. **Never frozen.** If the last retry still trips on a finite state
 //!    (violent, not diverging), it is kept with the free particles' speeds
 //!    clamped to the bound. If it is not finite, the free particles go back
 //!    to the start of the step at rest (pinned ones keep their prescribed
@@ -172,15 +181,7 @@ impl Limits {
         let start_strain = max_strain(connections.type1(), x);
         let start_speed = fastest(v, w, false);
         let pinned_speed = fastest(v, w, true);
-        let reach = if pinned_speed > 0.0 {
-            let shortest = connections
-                .type1()
-                .map(|l| l.rest_length)
-                .fold(f32::INFINITY, f32::min);
-            pinned_speed * dt / shortest.max(1e-6)
-        } else {
-            0.0
-        };
+        let reach = pinned_reach(pinned_speed, connections, dt);
         let grown = |start: f32, bound: f32| {
             if start.is_finite() {
                 bound.max(1.5 * start)
@@ -201,6 +202,21 @@ impl Limits {
             Divergence::Strain(s) => s > self.strain,
             Divergence::Speed(v) => v > self.speed,
         }
+    }
+}
+
+/// The strain pinned particles moving at up to `pinned_speed` (m/s) can
+/// add to a link in a step of `dt` s: `u·dt/L` for the shortest rest
+/// length `L` (dimensionless).
+fn pinned_reach(pinned_speed: f32, connections: &Connections, dt: f32) -> f32 {
+    if pinned_speed > 0.0 {
+        let shortest = connections
+            .type1()
+            .map(|l| l.rest_length)
+            .fold(f32::INFINITY, f32::min);
+        pinned_speed * dt / shortest.max(1e-6)
+    } else {
+        0.0
     }
 }
 
@@ -444,6 +460,36 @@ pub fn step_guarded<H: ContactHook>(input: StepInput<'_, H>) -> GuardedStep {
                 hook.as_deref_mut(),
                 (reason, strain),
             );
+        }
+        // A spike of strain the step's linearisation made rather than its
+        // forces (a stiff or fine sheet let go horizontal pulls on its pins
+        // with no stiffness across its plane), beyond what its pins' own
+        // motion can cause (a grab lifting a particle): the step is taken
+        // again in twice the substeps, quietly, as a boost that relaxes.
+        let spike = matches!(strain, Some(now)
+        if now > SPIKE_STRAIN
+            && now > SPIKE_GROWTH * state.last_strain.unwrap_or(0.0)
+            && now > SPIKE_STRAIN + pinned_reach(
+                fastest(&state.good_v, &particles.inverse_masses, true),
+                connections,
+                dt,
+            ));
+        if spike
+            && reason.is_none()
+            && effective.integrator.is_implicit()
+            && attempt < guard.retries
+            && effective.substeps < SPIKE_SUBSTEPS.min(MAX_SUBSTEPS)
+        {
+            if let Some(hook) = hook.as_mut() {
+                hook.undo();
+            }
+            particles.positions.clone_from(&state.good_x);
+            particles.velocities.clone_from(&state.good_v);
+            buffers.implicit.reset_history();
+            effective.substeps *= 2;
+            state.boost = Some((effective.substeps, effective.integrator));
+            state.clean = 0;
+            continue;
         }
         let diverged = reason.filter(|&r| {
             let start = (
@@ -718,6 +764,17 @@ pub struct GuardState {
 /// Fixed steps a cloth may keep the same strain above the guard's bound
 /// while it has colliders near, before a step without contacts lets it off.
 pub const SNAGGED_STEPS: u32 = 10;
+
+/// The Type 1 strain (dimensionless) past which an implicit step that
+/// raised its cloth's strain [`SPIKE_GROWTH`] times over is taken again in
+/// twice the substeps.
+pub const SPIKE_STRAIN: f32 = 0.15;
+
+/// How many times the strain the last step left a spike must reach.
+pub const SPIKE_GROWTH: f32 = 2.0;
+
+/// Substeps a spike's retries go up to at most.
+pub const SPIKE_SUBSTEPS: u32 = 8;
 
 /// Largest relative change of the worst strain in a step of a snagged cloth.
 const SNAG_CHANGE: f32 = 1e-4;
