@@ -658,6 +658,11 @@ pub fn bdf2(
     buffers.expected_x.copy_from_slice(x);
 }
 
+/// The factor on both solver tolerances of the solve of a
+/// [`newton_correction`] (dimensionless): 0.1 solves it ten times tighter
+/// than a step.
+pub const NEWTON_TOLERANCE: f32 = 0.1;
+
 /// One more Newton iteration of the last implicit step, at the state
 /// `(x, v)` it left (m, m/s): with that step written as `x₁ = a + γv₁` and
 /// `M(v₁ − b) = γF(x₁, v₁)` (backward Euler: `b = v₀`, `γ = h`; BDF2:
@@ -692,7 +697,15 @@ pub fn newton_correction(
     }
     buffers.rhs.filter(&buffers.op.free);
     buffers.warm = false;
-    solve(dynamics, buffers);
+    // A step that strained a link this far was not linearised where it
+    // ended: its correction is solved to tighter tolerances, or it would
+    // leave much of the strain it is there to remove.
+    let mut params = dynamics.settings.implicit;
+    params.tolerance *= NEWTON_TOLERANCE;
+    params.velocity_tolerance *= NEWTON_TOLERANCE;
+    let (iterations, residual) = pcg(&params, buffers);
+    buffers.last_iterations = iterations;
+    buffers.last_residual = residual;
     buffers.warm = false;
     for i in 0..x.len() {
         let delta = buffers.dv.get(i);
