@@ -1,9 +1,9 @@
 //! Implicit integrators: linearised backward Euler (Baraff–Witkin, MODEL.md
 //! §6.5) and Choi & Ko's second-order BDF (§6.6), solved matrix-free by a
 //! filtered, preconditioned conjugate gradient: block-Jacobi, plus a
-//! coarse correction over aggregates of particles: grid squares for grid
-//! cloths (`coarse.rs`), groups grown over the links for other cloths
-//! (`mesh_coarse.rs`;
+//! coarse correction over aggregates of particles: a multigrid V-cycle over
+//! grid squares for grid cloths (`coarse.rs`), groups grown over the links
+//! for other cloths (`mesh_coarse.rs`;
 //! [`ImplicitParams::coarse_grid`](crate::sim::settings::ImplicitParams::coarse_grid)).
 //! The operator is stored by grid offset, so its product runs as SIMD loops
 //! (`operator.rs`); the pairs of other cloths run as one list over the

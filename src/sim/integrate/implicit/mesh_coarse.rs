@@ -1,8 +1,9 @@
 //! The coarse correction of the implicit solver's preconditioner for a
 //! cloth that is not a grid (a mesh cloth, [`Connections::columns`] 0).
 //!
-//! The same two-level additive preconditioner as the grid's
-//! ([`coarse`](super::coarse)), `P⁻¹ r = B⁻¹ r + R A_c⁻¹ Rᵀ r` with
+//! A two-level additive preconditioner, the first level of the grid's
+//! multigrid ([`coarse`](super::coarse)) solved exactly,
+//! `P⁻¹ r = B⁻¹ r + R A_c⁻¹ Rᵀ r` with
 //! `A_c = Rᵀ A R`, on aggregates made from the mesh's connectivity rather
 //! than grid squares:
 //!
