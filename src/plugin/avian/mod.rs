@@ -40,9 +40,9 @@ use std::sync::Arc;
 
 use avian3d::prelude::{
     AngularVelocity, Collider, ColliderDisabled, ColliderOf, ColliderTransform, CollisionLayers,
-    ComputedCenterOfMass, ComputedMass, Forces, Friction, Gravity, LinearVelocity, Position,
-    ReadRigidBodyForces, Restitution, RigidBody, RigidBodyDisabled, Rotation, Sensor,
-    WriteRigidBodyForces,
+    ComputedAngularInertia, ComputedCenterOfMass, ComputedMass, Forces, Friction, Gravity,
+    LinearVelocity, Position, ReadRigidBodyForces, Restitution, RigidBody, RigidBodyDisabled,
+    Rotation, Sensor, WriteRigidBodyForces,
 };
 use bevy::app::{App, FixedUpdate, Plugin};
 use bevy::ecs::query::QueryData;
@@ -196,6 +196,7 @@ struct BodyData {
     spin: Option<&'static AngularVelocity>,
     centre: Option<&'static ComputedCenterOfMass>,
     mass: Option<&'static ComputedMass>,
+    inertia: Option<&'static ComputedAngularInertia>,
     friction: Option<&'static Friction>,
     restitution: Option<&'static Restitution>,
     disabled: Has<RigidBodyDisabled>,
@@ -273,6 +274,7 @@ fn feed_colliders(
         let mut motion = Motion::default();
         let mut dynamic = false;
         let mut mass = f32::INFINITY;
+        let mut inverse_inertia = Mat3::ZERO;
         if let Some(b) = &body
             && !b.body.is_static()
         {
@@ -280,6 +282,9 @@ fn feed_colliders(
             if dynamic && settings.two_way {
                 // Zero inverse mass (infinitely heavy) stays infinite.
                 mass = b.mass.map_or(f32::INFINITY, |m| 1.0 / m.inverse());
+                inverse_inertia = b
+                    .inertia
+                    .map_or(Mat3::ZERO, |i| i.rotated(b.rotation.0).inverse().to_mat3());
             }
             let centre = b.centre.map_or(Vec3::ZERO, |c| c.0);
             motion = Motion {
@@ -330,7 +335,8 @@ fn feed_colliders(
             .with_margin(piece.margin)
             .with_layers(layers)
             .with_feedback(dynamic && settings.two_way)
-            .with_mass(mass);
+            .with_mass(mass)
+            .with_inertia(motion.centre, inverse_inertia);
             if let Err(error) = scene.push(collider)
                 && warned.insert(entity)
             {

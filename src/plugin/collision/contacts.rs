@@ -264,14 +264,17 @@ impl ContactHook for SceneContacts<'_> {
             }
         }
         predict::keep_nearest(out);
-        // A body that gives way shares its mass among its contacts.
+        // A body that gives way shares its mass among its contacts, and the
+        // mass it shows along its surface at each.
         for &c in self.near {
-            let mass = self.scene.colliders[c].mass;
-            if mass.is_finite() {
+            let collider = &self.scene.colliders[c];
+            if collider.mass.is_finite() {
                 let source = c as u32;
-                let count = out.iter().filter(|s| s.source == source).count();
+                let count = out.iter().filter(|s| s.source == source).count() as f32;
                 for contact in out.iter_mut().filter(|s| s.source == source) {
-                    contact.body_mass = mass / count as f32;
+                    contact.body_mass = collider.mass / count;
+                    let at = x[contact.particle as usize];
+                    contact.body_tangent_mass = collider.tangent_mass(at, contact.normal) / count;
                 }
             }
         }

@@ -119,6 +119,14 @@ pub struct SceneCollider {
     /// (the default) for a collider that moves as it was going to
     /// whatever the cloth does.
     pub mass: f32,
+    /// The body's centre of mass at the start of the step (world, m), about
+    /// which it turns when the cloth rubs on it.
+    pub centre: Vec3,
+    /// The body's inverse inertia tensor at the start of the step (world,
+    /// 1/(kg·m²)); zero (the default) for a body that does not turn. With
+    /// [`mass`](Self::mass) it sets the mass the body shows along its
+    /// surface at a contact, which the implicit solve's friction takes in.
+    pub inverse_inertia: Mat3,
 }
 
 impl SceneCollider {
@@ -139,6 +147,8 @@ impl SceneCollider {
             layers: ContactLayers::ALL,
             feedback: false,
             mass: f32::INFINITY,
+            centre: Vec3::ZERO,
+            inverse_inertia: Mat3::ZERO,
         };
         collider.update_bounds();
         collider
@@ -182,6 +192,44 @@ impl SceneCollider {
         self
     }
 
+    /// With the body turning about `centre` (world, m) under the inverse
+    /// inertia tensor `inverse_inertia` (world, 1/(kg·m²)) as the cloth rubs
+    /// on it (see [`inverse_inertia`](Self::inverse_inertia)).
+    pub fn with_inertia(mut self, centre: Vec3, inverse_inertia: Mat3) -> Self {
+        self.centre = centre;
+        self.inverse_inertia = inverse_inertia;
+        self
+    }
+
+    /// The mass (kg) the body shows to a push along the surface at `point`
+    /// (world, m) with outward normal `normal`: its mass and its turning
+    /// about its centre together, for the direction in the surface in which
+    /// it gives way most. Infinite for a body that does not give way.
+    pub fn tangent_mass(&self, point: Vec3, normal: Vec3) -> f32 {
+        if !self.mass.is_finite() {
+            return f32::INFINITY;
+        }
+        // K = I/m + [r×]ᵀ I⁻¹ [r×]: the velocity the contact point gains per
+        // unit impulse. Its largest value over the tangent plane.
+        let r = point - self.centre;
+        let cross = Mat3::from_cols(
+            Vec3::new(0.0, r.z, -r.y),
+            Vec3::new(-r.z, 0.0, r.x),
+            Vec3::new(r.y, -r.x, 0.0),
+        );
+        let k = Mat3::from_diagonal(Vec3::splat(1.0 / self.mass))
+            + cross.transpose() * self.inverse_inertia * cross;
+        let t1 = normal.any_orthonormal_vector();
+        let t2 = normal.cross(t1);
+        let (a, b, d) = (t1.dot(k * t1), t1.dot(k * t2), t2.dot(k * t2));
+        let largest = 0.5 * (a + d) + (0.25 * (a - d) * (a - d) + b * b).sqrt();
+        if largest.is_finite() && largest > 0.0 {
+            (1.0 / largest).min(self.mass)
+        } else {
+            self.mass
+        }
+    }
+
     /// Recomputes [`min`](Self::min)/[`max`](Self::max) from the shape,
     /// margin and poses.
     pub fn update_bounds(&mut self) {
@@ -197,7 +245,8 @@ impl SceneCollider {
 
     /// Checks the shape (finite, positive dimensions; a mesh with
     /// triangles), the poses (finite), friction (finite, ≥ 0), restitution
-    /// (in [0, 1]), mass (> 0, may be infinite) and margin (finite, ≥ 0).
+    /// (in [0, 1]), mass (> 0, may be infinite), margin (finite, ≥ 0), centre
+    /// of mass and inertia (finite).
     pub fn validate(&self) -> Result<(), ClothError> {
         self.shape.validate()?;
         let finite = |p: &Isometry3d| {
@@ -222,6 +271,11 @@ impl SceneCollider {
         if !(self.margin.is_finite() && self.margin >= 0.0) {
             return Err(ClothError::InvalidCollider(
                 "margin must be finite and non-negative",
+            ));
+        }
+        if !(self.centre.is_finite() && self.inverse_inertia.is_finite()) {
+            return Err(ClothError::InvalidCollider(
+                "centre of mass and inertia must be finite",
             ));
         }
         Ok(())
@@ -387,3 +441,32 @@ impl ClothContactImpulses {
 #[derive(Component, Clone, Copy, Debug, Default, Reflect)]
 #[reflect(Component, Default)]
 pub struct ReportClothImpulses;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sim::collision::shapes::Shape;
+
+    #[test]
+    fn a_ball_shows_two_sevenths_of_its_mass_along_its_surface() {
+        // A solid ball (I = ⅖ m r²) rubbed at its top rolls as it slides:
+        // 1/m_t = 1/m + r²/I = 7/(2m).
+        let (m, r) = (2.0, 0.1);
+        let at = Isometry3d::from_translation(Vec3::Y);
+        let ball = SceneCollider::new(
+            Entity::PLACEHOLDER,
+            ColliderShape::Analytic(Shape::Sphere { radius: r }),
+            at,
+            at,
+        )
+        .with_mass(m)
+        .with_inertia(Vec3::Y, Mat3::from_diagonal(Vec3::splat(2.5 / (m * r * r))));
+        let top = ball.tangent_mass(Vec3::new(0.0, 1.0 + r, 0.0), Vec3::Y);
+        assert!((top - 2.0 / 7.0 * m).abs() < 1e-5, "{top}");
+        // Without turning it is its mass; a fixed surface does not give way.
+        let sliding = ball.clone().with_inertia(Vec3::Y, Mat3::ZERO);
+        assert!((sliding.tangent_mass(Vec3::new(0.0, 1.1, 0.0), Vec3::Y) - m).abs() < 1e-6);
+        let fixed = ball.with_mass(f32::INFINITY);
+        assert_eq!(fixed.tangent_mass(Vec3::ZERO, Vec3::Y), f32::INFINITY);
+    }
+}

@@ -245,12 +245,19 @@ fn feed_colliders(
             let mut motion = Motion::default();
             let mut dynamic = false;
             let mut mass = f32::INFINITY;
+            let mut inverse_inertia = Mat3::ZERO;
             if let Some(body) = body
                 && !body.is_fixed()
             {
                 dynamic = body.is_dynamic();
                 if dynamic && settings.two_way && body.mass() > 0.0 {
                     mass = body.mass();
+                    let i = body.mass_properties().effective_world_inv_inertia;
+                    inverse_inertia = Mat3::from_cols(
+                        Vec3::new(i.m11, i.m12, i.m13),
+                        Vec3::new(i.m12, i.m22, i.m23),
+                        Vec3::new(i.m13, i.m23, i.m33),
+                    );
                 }
                 let velocity = Entity::try_from_bits(body.user_data as u64)
                     .and_then(|e| velocities.get(e).ok());
@@ -292,7 +299,8 @@ fn feed_colliders(
                 .with_margin(piece.margin)
                 .with_layers(layers)
                 .with_feedback(dynamic && settings.two_way)
-                .with_mass(mass);
+                .with_mass(mass)
+                .with_inertia(motion.centre, inverse_inertia);
                 if let Err(error) = scene.push(scene_collider)
                     && warned.insert(entity)
                 {

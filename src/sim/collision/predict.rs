@@ -60,6 +60,7 @@ pub fn predict_contacts(
                 friction: collider.friction,
                 source: 0,
                 body_mass: f32::INFINITY,
+                body_tangent_mass: f32::INFINITY,
             });
         }
     }
@@ -217,6 +218,7 @@ mod tests {
             friction: 0.0,
             source: 0,
             body_mass: f32::INFINITY,
+            body_tangent_mass: f32::INFINITY,
         };
         let mut list = vec![c(3, 0.0), c(1, 0.2), c(3, -0.1), c(1, 0.1)];
         keep_nearest(&mut list);

@@ -33,8 +33,11 @@
 //! which leaves the spring `k / (1 + κ m / M)`. A heavy body (`M ≫ κ m`)
 //! holds the particle as a fixed surface does; a light one is pushed along
 //! with the particle's motion, and the cloth feels its inertia within the
-//! solve rather than a step late. The caller applies the impulses
-//! ([`ContactBuffers::impulses`]) to the body after the step.
+//! solve rather than a step late. Friction is held in series with the mass
+//! the body shows along its surface there ([`SolveContact::body_tangent_mass`],
+//! its turning included): a light or spinning body that the cloth rubs is
+//! carried along, not flung past the cloth's motion. The caller applies the
+//! impulses ([`ContactBuffers::impulses`]) to the body after the step.
 //!
 //! After the solve the spring gives the contact force `λ` of the step: a
 //! pulling one means the particle was leaving, and the spring held it back
@@ -65,6 +68,11 @@ pub struct SolveContact {
     /// moves: the body's mass shared among its contacts, or infinite for a
     /// surface that does not give way (module docs).
     pub body_mass: f32,
+    /// The mass (kg) the body shows along the surface at this contact, its
+    /// turning included, shared among its contacts as
+    /// [`body_mass`](Self::body_mass) is; infinite for a surface that does
+    /// not give way. Friction takes it in (module docs).
+    pub body_tangent_mass: f32,
 }
 
 /// How the solve held a particle in the last step.
@@ -219,10 +227,16 @@ impl ContactBuffers {
             // that lets it creep below the stick speed: a load past the
             // cone moves it faster than that, and it slides from the next
             // step on.
+            // A body that gives way along the surface takes the friction in
+            // series with its inertia there, as the normal spring does: it
+            // never drives the two past moving together.
+            let body = c.body_tangent_mass;
             let friction = if speed > STICK_SPEED {
-                Friction::Slide(alpha * c.friction * load / speed * along)
+                let kinetic = alpha * c.friction * load;
+                Friction::Slide(kinetic.min(body * speed) / speed * along)
             } else {
-                Friction::Hold(c.friction * load / STICK_SPEED)
+                let damping = c.friction * load / STICK_SPEED;
+                Friction::Hold(damping / (1.0 + alpha * damping / body))
             };
             self.held.push(Held {
                 index,

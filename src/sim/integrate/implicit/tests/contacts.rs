@@ -43,6 +43,7 @@ fn on_floor(y: f32, push: Vec3, mu: f32, steps: usize) -> (Vec3, Vec3, Hold) {
                 friction: mu,
                 source: 0,
                 body_mass: f32::INFINITY,
+                body_tangent_mass: f32::INFINITY,
             });
         }
         backward_euler(&dynamics, &mut x, &mut v, H, &mut buffers);
@@ -82,6 +83,7 @@ fn a_falling_particle_lands_on_the_floor_in_one_step() {
         friction: 0.0,
         source: 0,
         body_mass: f32::INFINITY,
+        body_tangent_mass: f32::INFINITY,
     });
     backward_euler(&dynamics, &mut x, &mut v, H, &mut buffers);
     // It ends on the surface (to within 1/(1 + κ) of the 5 cm it would
@@ -160,6 +162,7 @@ fn land_on(body_mass: f32) -> (Vec3, Vec3, Vec3) {
         friction: 0.0,
         source: 7,
         body_mass,
+        body_tangent_mass: body_mass,
     });
     backward_euler(&dynamics, &mut x, &mut v, H, &mut buffers);
     let impulses: Vec<_> = buffers.contacts.impulses().collect();
@@ -190,4 +193,61 @@ fn a_contacts_impulse_is_the_momentum_it_gave_and_a_light_body_gives_way() {
     assert!(light.y > 0.0 && light.y < 0.2 * fixed.y, "{light} {fixed}");
     assert!(x_light.y < x_fixed.y - 0.01, "{x_light} {x_fixed}");
     assert!((x_heavy - x_fixed).length() < 1e-3);
+}
+
+/// One backward-Euler step of a particle resting on a surface and moving
+/// along it at `speed` m/s, the surface a body that shows `tangent_mass` kg
+/// along it (friction 0.5): the contact's impulse along the surface (N·s).
+fn rub(speed: f32, tangent_mass: f32) -> f32 {
+    let settings = SimSettings {
+        damping: 0.0,
+        ..SimSettings::default()
+    };
+    let connections = Connections::default();
+    let w = [1.0 / M];
+    let dynamics = Dynamics {
+        settings: &settings,
+        connections: &connections,
+        inverse_masses: &w,
+        external: &[],
+        workers: crate::sim::workers::Pool::none(),
+    };
+    let (mut x, mut v) = ([Vec3::ZERO], [Vec3::X * speed]);
+    let mut buffers = ImplicitBuffers::default();
+    buffers.contacts.list.push(SolveContact {
+        particle: 0,
+        normal: Vec3::Y,
+        gap: 0.0,
+        velocity: Vec3::ZERO,
+        friction: 0.5,
+        source: 0,
+        body_mass: f32::INFINITY,
+        body_tangent_mass: tangent_mass,
+    });
+    backward_euler(&dynamics, &mut x, &mut v, H, &mut buffers);
+    let impulses: Vec<_> = buffers.contacts.impulses().collect();
+    assert_eq!(impulses.len(), 1);
+    -impulses[0].1.x
+}
+
+#[test]
+fn friction_never_drives_a_light_body_past_the_cloth() {
+    // A body that shows a hundredth of the particle's mass along its
+    // surface (a small ball spinning freely under the cloth) takes at most
+    // the impulse that brings it to the particle's speed: more would fling
+    // it past, and the cloth with it the next step.
+    let light = 0.01 * M;
+    for speed in [1.0, 0.5 * STICK_SPEED] {
+        let fixed = rub(speed, f32::INFINITY);
+        let given = rub(speed, light);
+        assert!(
+            fixed > 5.0 * light * speed,
+            "a fixed surface takes more at {speed} m/s: {fixed} N·s"
+        );
+        assert!(
+            given > 0.0 && given <= 1.001 * light * speed,
+            "at {speed} m/s the light body took {given} N·s, at most {}",
+            light * speed
+        );
+    }
 }
