@@ -220,12 +220,7 @@ fn every_rapier_shape_drapes_a_cloth() {
         );
         assert!(x[middle].y < 1.03, "{name}: hovers at {}", x[middle].y);
         assert_eq!(inside, 0, "{name}: particles inside");
-        // The compound's box has a sharp vertical edge the skirt wraps: a
-        // particle held by friction on one face while its neighbour on the
-        // other swings stretches their link, whose chord cuts the edge, for
-        // a frame.
-        let bound = if name == "compound" { 0.1 } else { 0.05 };
-        assert!(worst <= bound, "{name}: strain {worst}");
+        assert!(worst <= 0.05, "{name}: strain {worst}");
     }
 }
 

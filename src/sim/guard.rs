@@ -35,9 +35,9 @@
 //!    motion) and the fallback integrator stays in force, so the next step
 //!    starts from a finite state with an integrator stable at any step: a
 //!    cloth is held back for one step at most. A cloth whose worst link its
-//!    contacts hold stretched past the bound and unmoving for
-//!    [`SNAGGED_STEPS`] steps (caught on a thin collider, a link through
-//!    it) takes one step without contacts.
+//!    contacts hold stretched past the bound, and not relaxing by
+//!    `SNAG_CHANGE` (0.1 %) a step, for [`SNAGGED_STEPS`] steps (caught on
+//!    a thin collider, a link through it) takes one step without contacts.
 //!
 //! The stronger setting stays in force for that cloth for a while (see
 //! [`GuardState::relax`] and [`ClothStats`](crate::ClothStats)), a
@@ -510,11 +510,11 @@ pub fn step_guarded<H: ContactHook>(input: StepInput<'_, H>) -> GuardedStep {
                     None
                 }
             };
-            // Caught: stretched far past any rest, and the worst link
-            // neither stretches nor relaxes while contacts act on it.
+            // Caught: stretched far past any rest, and the worst link does
+            // not relax while contacts act on it (it may tremble).
             let held = hook.is_some()
                 && matches!((strain, state.last_strain), (Some(now), Some(last))
-                    if now > guard.max_strain && (now - last).abs() <= SNAG_CHANGE * now);
+                    if now > guard.max_strain && now - last >= -SNAG_CHANGE * now);
             state.snagged = if held { state.snagged + 1 } else { 0 };
             state.last_strain = strain;
             return GuardedStep {
@@ -747,7 +747,7 @@ pub struct GuardState {
     pub(crate) good_v: Vec<Vec3>,
     /// The Type 1 strain the last clean step left (dimensionless).
     last_strain: Option<f32>,
-    /// Steps the cloth has kept the same strain above the bound, with
+    /// Steps the cloth has stayed above the bound without relaxing, with
     /// colliders near (see [`SNAGGED_STEPS`]).
     snagged: u32,
     /// The state before an extra Newton iteration, to undo it.
@@ -761,8 +761,9 @@ pub struct GuardState {
     pub(crate) trips: u32,
 }
 
-/// Fixed steps a cloth may keep the same strain above the guard's bound
-/// while it has colliders near, before a step without contacts lets it off.
+/// Fixed steps a cloth may stay strained above the guard's bound without
+/// relaxing while it has colliders near, before a step without contacts
+/// lets it off.
 pub const SNAGGED_STEPS: u32 = 10;
 
 /// The Type 1 strain (dimensionless) past which an implicit step that
@@ -776,8 +777,9 @@ pub const SPIKE_GROWTH: f32 = 2.0;
 /// Substeps a spike's retries go up to at most.
 pub const SPIKE_SUBSTEPS: u32 = 8;
 
-/// Largest relative change of the worst strain in a step of a snagged cloth.
-const SNAG_CHANGE: f32 = 1e-4;
+/// Smallest relative fall of the worst strain in a step that counts as
+/// relaxing (dimensionless): a snagged cloth's trembles less than this.
+const SNAG_CHANGE: f32 = 1e-3;
 
 /// Clean fixed steps after which an adaptive cloth's boost halves.
 pub const RELAX_AFTER: u32 = 10;

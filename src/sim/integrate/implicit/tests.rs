@@ -6,6 +6,7 @@ use crate::plugin::builder::ClothBuilder;
 use crate::sim::connections::{Connections, Link};
 use crate::sim::model::jacobian::assemble;
 use crate::sim::settings::{ClothModel, SimSettings};
+use bevy::math::DVec3;
 
 /// Dense `A` (3n × 3n, f64) from the operator's pairs, pinned rows and
 /// columns replaced by the identity.
@@ -451,3 +452,30 @@ fn backward_euler_is_first_order_and_bdf2_second_order() {
 mod contacts;
 mod streamed;
 mod two_threads;
+
+#[test]
+fn a_solve_stopped_at_its_tolerance_leaves_no_net_force() {
+    // Stopped early, the solve's residual `r = b − AΔv` is force (times the
+    // step) the cloth did not get right; its sum would be momentum made
+    // from nothing, which moves a cloth as a whole, step after step. The
+    // residual is left with no sum over the free particles.
+    let (cloth, v, _) = deformed(32);
+    let mut settings = SimSettings::default();
+    settings.implicit.tolerance = 0.1;
+    settings.implicit.velocity_tolerance = 0.0;
+    let mut buffers = solved_cold(&settings, &cloth, &v);
+    let mut q = Soa::default();
+    q.resize(v.len());
+    buffers.op.apply(&buffers.dv, &mut q);
+    let (mut net, mut size) = (DVec3::ZERO, 0.0f64);
+    for i in 0..v.len() {
+        let r = (buffers.rhs.get(i) - q.get(i)) * buffers.op.free[i];
+        net += r.as_dvec3();
+        size += r.length() as f64;
+    }
+    assert!(size > 0.0, "the solve stopped early");
+    assert!(
+        net.length() <= 1e-5 * size,
+        "net residual {net} N·s against {size} N·s in all"
+    );
+}
