@@ -332,7 +332,8 @@ fn balance(op: &mut Operator, dv: &mut Soa, r: &Soa, [d, q]: [&mut Soa; 2]) {
         q.filter(&op.free);
         *zaz.col_mut(k) = DVec3::from(net(q));
     }
-    if !(zaz.determinant() > 0.0) {
+    let det = zaz.determinant();
+    if det.is_nan() || det <= 0.0 {
         return;
     }
     let delta = (zaz.inverse() * left).as_vec3();
