@@ -59,7 +59,6 @@ use bevy::reflect::Reflect;
 
 use crate::sim::connections::{Connections, max_strain};
 use crate::sim::integrate::StepBuffers;
-use crate::sim::integrate::implicit::contacts::Hold;
 use crate::sim::integrate::implicit::newton_correction;
 use crate::sim::model::Dynamics;
 use crate::sim::particles::Particles;
@@ -622,14 +621,18 @@ struct Refine<'a> {
 /// [`ImplicitParams::newton_strain`](crate::sim::settings::ImplicitParams::newton_strain)
 /// and by a fifth more than the last step left, each followed by the
 /// contact `hook` and the check; an iteration that does not lower the
-/// strain is undone. The particles the step's contacts held are pinned
-/// through it. Returns the last check's result.
+/// strain is undone. Returns the last check's result.
 fn refine<H: ContactHook>(
     r: Refine,
     state: &mut GuardState,
     mut hook: Option<&mut H>,
     mut checked: (Option<Divergence>, Option<f32>),
 ) -> (Option<Divergence>, Option<f32>) {
+    if r.buffers.implicit.contacts.any() {
+        // Its contacts were held inside the solve: a Newton iteration
+        // without them would let go of them.
+        return checked;
+    }
     let params = r.settings.implicit;
     let trigger = params
         .newton_strain
@@ -652,29 +655,10 @@ fn refine<H: ContactHook>(
             inverse_masses,
             ..
         } = &mut *r.particles;
-        // The particles the step's contacts held stay where the solve left
-        // them, as pins of the correction: a correction without their
-        // contacts would let go of them.
-        let contacts = &r.buffers.implicit.contacts;
-        let w: &[f32] = if contacts.any() {
-            state.newton_w.clear();
-            state
-                .newton_w
-                .extend(inverse_masses.iter().enumerate().map(|(p, &w)| {
-                    if contacts.hold(p) == Hold::Free {
-                        w
-                    } else {
-                        0.0
-                    }
-                }));
-            &state.newton_w
-        } else {
-            inverse_masses
-        };
         let dynamics = Dynamics {
             settings: r.settings,
             connections: r.connections,
-            inverse_masses: w,
+            inverse_masses,
             external: r.external,
             workers: &r.buffers.workers,
         };
@@ -769,9 +753,6 @@ pub struct GuardState {
     /// The state before an extra Newton iteration, to undo it.
     newton_x: Vec<Vec3>,
     newton_v: Vec<Vec3>,
-    /// The inverse masses of an extra Newton iteration (1/kg), with the
-    /// particles the step's contacts held as pins.
-    newton_w: Vec<f32>,
     /// Substeps and integrator the guard moved the cloth to.
     pub(crate) boost: Option<(u32, Integrator)>,
     /// Clean steps since the boost last changed.
