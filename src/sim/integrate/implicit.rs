@@ -308,8 +308,8 @@ fn pcg_inner(params: &ImplicitParams, buffers: &mut ImplicitBuffers) -> (u32, f3
 /// A solve stopped at its tolerance leaves a residual `r = b − AΔv` (N·s)
 /// whose sum is momentum the step made from nothing: the internal forces
 /// sum to zero, their error need not. Small per step, it is the same each
-/// step on a cloth doing the same thing, and moves it as a whole (a paper
-/// napkin folding on a table walked off it at 0.3 m/s). This is a Galerkin
+/// step on a cloth doing the same thing, and moves it as a whole (uncorrected,
+/// a paper napkin folding on a table walks off it at 0.3 m/s). This is a Galerkin
 /// correction on the translations, so it also never raises the error in
 /// the solver's energy norm; the step's momentum then changes by exactly
 /// the external impulse, contacts and pins included. Three products.
