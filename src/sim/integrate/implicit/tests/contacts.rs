@@ -9,46 +9,52 @@ use crate::sim::integrate::implicit::contacts::STICK_SPEED;
 const M: f32 = 0.01;
 const H: f32 = 1.0 / 60.0;
 
-/// `steps` backward-Euler steps of one free particle on the floor `y = 0`
-/// (friction `mu`, contact thickness 0) from `y`, at rest, under gravity
-/// and the external force `push` (N), listing the contact before each
-/// step as a caller would. Returns the end state and the last hold.
-fn on_floor(y: f32, push: Vec3, mu: f32, steps: usize) -> (Vec3, Vec3, Hold) {
+/// Runs `f` with the dynamics of one particle of mass [`M`] under gravity
+/// and the external force `push` (N), without air damping.
+fn one_particle<R>(push: Vec3, f: impl FnOnce(&Dynamics) -> R) -> R {
     let settings = SimSettings {
         damping: 0.0,
         ..SimSettings::default()
     };
     let connections = Connections::default();
-    let w = [1.0 / M];
-    let external = [push];
-    let dynamics = Dynamics {
+    let (w, external) = ([1.0 / M], [push]);
+    f(&Dynamics {
         settings: &settings,
         connections: &connections,
         inverse_masses: &w,
         external: &external,
         workers: crate::sim::workers::Pool::none(),
-    };
-    let (mut x, mut v) = ([Vec3::new(0.0, y, 0.0)], [Vec3::ZERO]);
-    let mut buffers = ImplicitBuffers::default();
-    for _ in 0..steps {
-        let gap = x[0].y;
-        buffers.contacts.list.clear();
-        let arriving = gap + H * v[0].y < 0.0;
-        if gap <= 1e-4 || arriving {
-            buffers.contacts.list.push(SolveContact {
-                particle: 0,
-                normal: Vec3::Y,
-                gap,
-                velocity: Vec3::ZERO,
-                friction: mu,
-                source: 0,
-                body_mass: f32::INFINITY,
-                body_tangent_mass: f32::INFINITY,
-            });
+    })
+}
+
+/// `steps` backward-Euler steps of one free particle on the floor `y = 0`
+/// (friction `mu`, contact thickness 0) from `y`, at rest, under gravity
+/// and the external force `push` (N), listing the contact before each
+/// step as a caller would. Returns the end state and the last hold.
+fn on_floor(y: f32, push: Vec3, mu: f32, steps: usize) -> (Vec3, Vec3, Hold) {
+    one_particle(push, |dynamics| {
+        let (mut x, mut v) = ([Vec3::new(0.0, y, 0.0)], [Vec3::ZERO]);
+        let mut buffers = ImplicitBuffers::default();
+        for _ in 0..steps {
+            let gap = x[0].y;
+            buffers.contacts.list.clear();
+            let arriving = gap + H * v[0].y < 0.0;
+            if gap <= 1e-4 || arriving {
+                buffers.contacts.list.push(SolveContact {
+                    particle: 0,
+                    normal: Vec3::Y,
+                    gap,
+                    velocity: Vec3::ZERO,
+                    friction: mu,
+                    source: 0,
+                    body_mass: f32::INFINITY,
+                    body_tangent_mass: f32::INFINITY,
+                });
+            }
+            backward_euler(dynamics, &mut x, &mut v, H, &mut buffers);
         }
-        backward_euler(&dynamics, &mut x, &mut v, H, &mut buffers);
-    }
-    (x[0], v[0], buffers.contacts.hold(0))
+        (x[0], v[0], buffers.contacts.hold(0))
+    })
 }
 
 #[test]
@@ -138,45 +144,34 @@ fn friction_holds_inside_its_cone_and_slides_by_coulomb_outside_it() {
 /// with a body of `body_mass` kg behind the surface.
 fn land_on(body_mass: f32) -> (Vec3, Vec3, Vec3) {
     // No air damping: gravity and the contact are the only forces.
-    let settings = SimSettings {
-        damping: 0.0,
-        ..SimSettings::default()
-    };
-    let connections = Connections::default();
-    let w = [1.0 / M];
-    let dynamics = Dynamics {
-        settings: &settings,
-        connections: &connections,
-        inverse_masses: &w,
-        external: &[],
-        workers: crate::sim::workers::Pool::none(),
-    };
-    let (mut x, mut v) = ([Vec3::Y * 0.01], [Vec3::NEG_Y * 3.0]);
-    let v0 = v[0];
-    let mut buffers = ImplicitBuffers::default();
-    buffers.contacts.list.push(SolveContact {
-        particle: 0,
-        normal: Vec3::Y,
-        gap: 0.01,
-        velocity: Vec3::ZERO,
-        friction: 0.0,
-        source: 7,
-        body_mass,
-        body_tangent_mass: body_mass,
-    });
-    backward_euler(&dynamics, &mut x, &mut v, H, &mut buffers);
-    let impulses: Vec<_> = buffers.contacts.impulses().collect();
-    assert_eq!(impulses.len(), 1);
-    assert_eq!(impulses[0].0.source, 7, "the contact's collider comes back");
-    // Without the contact the step would change the momentum by m g h.
-    let free = M * (v0 + settings.gravity * H);
-    let by_contact = M * v[0] - free;
-    let impulse = impulses[0].1;
-    assert!(
-        (impulse - by_contact).length() <= 1e-3 * by_contact.length(),
-        "the impulse {impulse} is the momentum the contact gave, {by_contact}"
-    );
-    (x[0], v[0], impulse)
+    one_particle(Vec3::ZERO, |dynamics| {
+        let (mut x, mut v) = ([Vec3::Y * 0.01], [Vec3::NEG_Y * 3.0]);
+        let v0 = v[0];
+        let mut buffers = ImplicitBuffers::default();
+        buffers.contacts.list.push(SolveContact {
+            particle: 0,
+            normal: Vec3::Y,
+            gap: 0.01,
+            velocity: Vec3::ZERO,
+            friction: 0.0,
+            source: 7,
+            body_mass,
+            body_tangent_mass: body_mass,
+        });
+        backward_euler(dynamics, &mut x, &mut v, H, &mut buffers);
+        let impulses: Vec<_> = buffers.contacts.impulses().collect();
+        assert_eq!(impulses.len(), 1);
+        assert_eq!(impulses[0].0.source, 7, "the contact's collider comes back");
+        // Without the contact the step would change the momentum by m g h.
+        let free = M * (v0 + dynamics.settings.gravity * H);
+        let by_contact = M * v[0] - free;
+        let impulse = impulses[0].1;
+        assert!(
+            (impulse - by_contact).length() <= 1e-3 * by_contact.length(),
+            "the impulse {impulse} is the momentum the contact gave, {by_contact}"
+        );
+        (x[0], v[0], impulse)
+    })
 }
 
 #[test]
@@ -199,35 +194,24 @@ fn a_contacts_impulse_is_the_momentum_it_gave_and_a_light_body_gives_way() {
 /// along it at `speed` m/s, the surface a body that shows `tangent_mass` kg
 /// along it (friction 0.5): the contact's impulse along the surface (N·s).
 fn rub(speed: f32, tangent_mass: f32) -> f32 {
-    let settings = SimSettings {
-        damping: 0.0,
-        ..SimSettings::default()
-    };
-    let connections = Connections::default();
-    let w = [1.0 / M];
-    let dynamics = Dynamics {
-        settings: &settings,
-        connections: &connections,
-        inverse_masses: &w,
-        external: &[],
-        workers: crate::sim::workers::Pool::none(),
-    };
-    let (mut x, mut v) = ([Vec3::ZERO], [Vec3::X * speed]);
-    let mut buffers = ImplicitBuffers::default();
-    buffers.contacts.list.push(SolveContact {
-        particle: 0,
-        normal: Vec3::Y,
-        gap: 0.0,
-        velocity: Vec3::ZERO,
-        friction: 0.5,
-        source: 0,
-        body_mass: f32::INFINITY,
-        body_tangent_mass: tangent_mass,
-    });
-    backward_euler(&dynamics, &mut x, &mut v, H, &mut buffers);
-    let impulses: Vec<_> = buffers.contacts.impulses().collect();
-    assert_eq!(impulses.len(), 1);
-    -impulses[0].1.x
+    one_particle(Vec3::ZERO, |dynamics| {
+        let (mut x, mut v) = ([Vec3::ZERO], [Vec3::X * speed]);
+        let mut buffers = ImplicitBuffers::default();
+        buffers.contacts.list.push(SolveContact {
+            particle: 0,
+            normal: Vec3::Y,
+            gap: 0.0,
+            velocity: Vec3::ZERO,
+            friction: 0.5,
+            source: 0,
+            body_mass: f32::INFINITY,
+            body_tangent_mass: tangent_mass,
+        });
+        backward_euler(dynamics, &mut x, &mut v, H, &mut buffers);
+        let impulses: Vec<_> = buffers.contacts.impulses().collect();
+        assert_eq!(impulses.len(), 1);
+        -impulses[0].1.x
+    })
 }
 
 #[test]
