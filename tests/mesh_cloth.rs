@@ -11,7 +11,7 @@ use bevy_cloth::sim::collision::shapes::Shape;
 use bevy_cloth::sim::connections::{Connections, max_strain};
 use bevy_cloth::sim::guard::{GuardState, StepInput, step_guarded};
 use bevy_cloth::sim::integrate::StepBuffers;
-use bevy_cloth::sim::integrate::implicit::{Hold, SolveContact};
+use bevy_cloth::sim::integrate::implicit::{Hold, SolveBody, SolveContact};
 use bevy_cloth::sim::particles::Particles;
 use bevy_cloth::sim::step::{ContactHook, NoContacts, Substep, step_cloth_with};
 use bevy_cloth::sim::topology::{MeshTopology, disc};
@@ -138,8 +138,10 @@ impl ContactHook for Ball {
         v: &[Vec3],
         w: &[f32],
         out: &mut Vec<SolveContact>,
+        _bodies: &mut Vec<SolveBody>,
     ) {
-        predict_contacts(&self.collider, (x, v, w), self.thickness, sub.dt, out);
+        let reach = (self.thickness, sub.dt);
+        predict_contacts(&self.collider, (x, v, w), reach, false, out);
         keep_nearest(out);
     }
 }

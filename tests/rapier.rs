@@ -616,6 +616,73 @@ fn a_heavy_ball_dropped_into_a_hammock_is_never_thrown_faster_than_it_came() {
     }
 }
 
+#[test]
+fn balls_come_to_rest_in_a_hammock() {
+    // As with avian: 5 kg in 0.3 kg of canvas, and lighter and heavier
+    // balls in cotton and canvas, each at rest near the middle after 3 s.
+    let cases = [
+        (ClothMaterial::DENIM, 5.0, 0.12),
+        (ClothMaterial::COTTON, 0.1, 0.15),
+        (ClothMaterial::COTTON, 1.0, 0.12),
+        (ClothMaterial::DENIM, 10.0, 0.15),
+    ];
+    for (material, mass, radius) in cases {
+        let mut app = app();
+        let cloth = app.world_mut().spawn(hammock(material)).id();
+        run(&mut app, 60, cloth);
+        let ball = ball(&mut app, (mass, radius), Vec3::Y * 1.1, Vec3::ZERO);
+        run(&mut app, 150, cloth);
+        let (mut speed, mut strain) = (0.0f32, 0.0f32);
+        for _ in 0..30 {
+            app.update();
+            let stats = app.world().get::<ClothStats>(cloth).unwrap();
+            strain = strain.max(stats.max_strain);
+            speed = speed.max(app.world().get::<Velocity>(ball).unwrap().linear.length());
+        }
+        let at = app.world().get::<Transform>(ball).unwrap().translation;
+        eprintln!(
+            "rapier {mass} kg ball: at {at}, speed over the last 0.5 s {:.2} cm/s, strain {:.2} %",
+            100.0 * speed,
+            100.0 * strain
+        );
+        assert!(at.y > 0.5 && at.y < 1.0, "{mass} kg ball at {at}");
+        assert!(
+            Vec2::new(at.x, at.z).length() < 0.1,
+            "{mass} kg ball at {at}"
+        );
+        assert!(speed < 0.01, "{mass} kg ball moving at {speed} m/s");
+        if mass == 5.0 {
+            assert!(strain <= 0.05, "strain {strain}");
+        }
+    }
+}
+
+#[test]
+fn a_ball_the_cloth_lets_go_of_falls_freely() {
+    // The cloth cancels rapier's gravity on a body it holds up, for the
+    // steps it holds it; once it is gone the body falls at g again, and
+    // the `ExternalForce` it was given is back to nothing.
+    let mut app = app();
+    let cloth = app.world_mut().spawn(hammock(ClothMaterial::DENIM)).id();
+    run(&mut app, 60, cloth);
+    let ball = ball(&mut app, (1.0, 0.12), Vec3::Y * 1.1, Vec3::ZERO);
+    run(&mut app, 120, cloth);
+    assert!(app.world().get::<ExternalForce>(ball).is_some());
+    app.world_mut().despawn(cloth);
+    for _ in 0..3 {
+        app.update();
+    }
+    let v0 = app.world().get::<Velocity>(ball).unwrap().linear;
+    for _ in 0..6 {
+        app.update();
+    }
+    let v1 = app.world().get::<Velocity>(ball).unwrap().linear;
+    let force = app.world().get::<ExternalForce>(ball).unwrap().force;
+    assert_eq!(force, Vec3::ZERO, "the cancelling force is taken off");
+    let fall = (v1 - v0).y / (6.0 / 60.0);
+    assert!((fall + 9.81).abs() < 0.05, "falls at {fall} m/s²");
+}
+
 /// With both bridges, an entity carrying an avian and a rapier collider
 /// collides once (through avian's).
 #[cfg(feature = "avian")]

@@ -4,14 +4,14 @@
 use bevy::math::Vec3;
 
 use crate::sim::connections::Connections;
-use crate::sim::integrate::implicit::{ContactBuffers, Hold, SolveContact};
+use crate::sim::integrate::implicit::{ContactBuffers, Hold, SolveBody, SolveContact};
 use crate::sim::integrate::{self, StepBuffers};
 use crate::sim::model::Dynamics;
 use crate::sim::particles::Particles;
 use crate::sim::settings::SimSettings;
 
 /// One substep, as a contact hook sees it.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Substep {
     /// Start of the substep as a fraction of the fixed step, in [0, 1).
     pub from: f32,
@@ -44,7 +44,8 @@ pub trait ContactHook {
 
     /// Before an implicit substep: the contacts its solve is to hold
     /// (positions m, velocities m/s, inverse masses 1/kg at the substep's
-    /// start) into `out`. None by default.
+    /// start) into `out`, and the free bodies behind them
+    /// ([`SolveContact::body`]) into `bodies`. None by default.
     fn predict(
         &mut self,
         _sub: Substep,
@@ -52,6 +53,7 @@ pub trait ContactHook {
         _v: &[Vec3],
         _w: &[f32],
         _out: &mut Vec<SolveContact>,
+        _bodies: &mut Vec<SolveBody>,
     ) {
     }
 
@@ -161,14 +163,16 @@ pub fn step_cloth_with(
     // and a step that stays whole keeps them for its one substep.
     let mut predicted = false;
     if implicit && let Some(hook) = contacts.as_mut() {
-        let list = &mut buffers.implicit.contacts.list;
-        list.clear();
+        let contacts = &mut buffers.implicit.contacts;
+        contacts.list.clear();
+        contacts.bodies.clear();
         let whole = Substep {
             from: 0.0,
             to: 1.0,
             dt,
         };
-        hook.predict(whole, positions, velocities, inverse_masses, list);
+        let (list, bodies) = (&mut contacts.list, &mut contacts.bodies);
+        hook.predict(whole, positions, velocities, inverse_masses, list, bodies);
         let impact = impact_substeps(list, velocities, connections, dt);
         if impact > substeps {
             substeps = impact;
@@ -195,6 +199,7 @@ pub fn step_cloth_with(
         };
         if !predicted {
             buffers.implicit.contacts.list.clear();
+            buffers.implicit.contacts.bodies.clear();
         }
         if let Some(hook) = contacts.as_mut() {
             buffers.substep_start.copy_from_slice(positions);
@@ -205,6 +210,7 @@ pub fn step_cloth_with(
                     velocities,
                     inverse_masses,
                     &mut buffers.implicit.contacts.list,
+                    &mut buffers.implicit.contacts.bodies,
                 );
             }
         }

@@ -41,8 +41,8 @@ use std::sync::Arc;
 use avian3d::prelude::{
     AngularVelocity, Collider, ColliderDisabled, ColliderOf, ColliderTransform, CollisionLayers,
     ComputedAngularInertia, ComputedCenterOfMass, ComputedMass, Forces, Friction, Gravity,
-    LinearVelocity, Position, ReadRigidBodyForces, Restitution, RigidBody, RigidBodyDisabled,
-    Rotation, Sensor, WriteRigidBodyForces,
+    GravityScale, LinearVelocity, Position, ReadRigidBodyForces, Restitution, RigidBody,
+    RigidBodyDisabled, Rotation, Sensor, WriteRigidBodyForces,
 };
 use bevy::app::{App, FixedUpdate, Plugin};
 use bevy::ecs::query::QueryData;
@@ -197,6 +197,7 @@ struct BodyData {
     centre: Option<&'static ComputedCenterOfMass>,
     mass: Option<&'static ComputedMass>,
     inertia: Option<&'static ComputedAngularInertia>,
+    gravity_scale: Option<&'static GravityScale>,
     friction: Option<&'static Friction>,
     restitution: Option<&'static Restitution>,
     disabled: Has<RigidBodyDisabled>,
@@ -221,6 +222,7 @@ fn feed_colliders(
     mut commands: Commands,
     time: Res<Time<Fixed>>,
     settings: Res<ClothAvianSettings>,
+    gravity: Option<Res<Gravity>>,
     mut colliders: Query<ColliderData, Usable>,
     bodies: Query<BodyData>,
     mut scene: ResMut<ColliderScene>,
@@ -275,11 +277,14 @@ fn feed_colliders(
         let mut dynamic = false;
         let mut mass = f32::INFINITY;
         let mut inverse_inertia = Mat3::ZERO;
+        let mut acceleration = Vec3::ZERO;
         if let Some(b) = &body
             && !b.body.is_static()
         {
             dynamic = b.body.is_dynamic();
             if dynamic && settings.two_way {
+                let scale = b.gravity_scale.map_or(1.0, |g| g.0);
+                acceleration = gravity.as_ref().map_or(Vec3::ZERO, |g| g.0) * scale;
                 // Zero inverse mass (infinitely heavy) stays infinite.
                 mass = b.mass.map_or(f32::INFINITY, |m| 1.0 / m.inverse());
                 inverse_inertia = b
@@ -336,7 +341,8 @@ fn feed_colliders(
             .with_layers(layers)
             .with_feedback(dynamic && settings.two_way)
             .with_mass(mass)
-            .with_inertia(motion.centre, inverse_inertia);
+            .with_inertia(motion.centre, inverse_inertia)
+            .with_acceleration(acceleration);
             if let Err(error) = scene.push(collider)
                 && warned.insert(entity)
             {
@@ -346,6 +352,15 @@ fn feed_colliders(
     }
 }
 
+/// What [`push_bodies`] reads and writes of a body.
+type PushedBody = (
+    &'static RigidBody,
+    &'static ComputedCenterOfMass,
+    &'static ComputedMass,
+    Option<&'static GravityScale>,
+    Forces,
+);
+
 /// [`ClothSystems::Writeback`]: the cloth's impulses on each dynamic body,
 /// linear and angular about its centre of mass.
 fn push_bodies(
@@ -354,27 +369,38 @@ fn push_bodies(
     gravity: Option<Res<Gravity>>,
     impulses: Res<ClothContactImpulses>,
     colliders: Query<&ColliderOf>,
-    mut bodies: Query<
-        (&RigidBody, &ComputedCenterOfMass, &ComputedMass, Forces),
-        Without<RigidBodyDisabled>,
-    >,
+    mut bodies: Query<PushedBody, Without<RigidBodyDisabled>>,
 ) {
     for (entity, impulse) in impulses.iter() {
         let body = colliders.get(entity).map_or(entity, |of| of.body);
-        let Ok((kind, centre, mass, mut forces)) = bodies.get_mut(body) else {
+        let Ok((kind, centre, mass, gravity_scale, mut forces)) = bodies.get_mut(body) else {
             continue;
         };
         if !kind.is_dynamic() || !(impulse.linear.is_finite() && impulse.angular.is_finite()) {
             continue;
         }
-        let scale = impulse.inelastic_share(
-            forces.linear_velocity(),
-            1.0 / mass.inverse(),
-            gravity.as_ref().map_or(Vec3::ZERO, |g| g.0) * time.timestep().as_secs_f32(),
-        );
+        let dt = time.timestep().as_secs_f32();
+        if dt <= 0.0 {
+            continue;
+        }
+        let body_gravity =
+            gravity.as_ref().map_or(Vec3::ZERO, |g| g.0) * gravity_scale.map_or(1.0, |s| s.0);
         let centre = forces.position() + forces.rotation() * centre.0;
         let angular = impulse.angular_about(centre);
-        forces.apply_linear_impulse(scale * impulse.linear);
-        forces.apply_angular_impulse(scale * angular);
+        // The solve moved the body as backward Euler does: its position
+        // changes by the step times its velocity at the end, gravity
+        // included. Avian spreads gravity over its substeps, which leaves
+        // the body higher by a part of `g h²` and with a velocity that an
+        // impulse at the start of the next step has to take back again:
+        // a ball resting on the cloth would read a few cm/s downwards. So
+        // for this step the body's gravity comes as an impulse at the
+        // start with the cloth's, and a force cancels it over the
+        // substeps.
+        let weight = Some(mass.value() * body_gravity)
+            .filter(|w| w.is_finite())
+            .unwrap_or_default();
+        forces.apply_linear_impulse(impulse.linear + weight * dt);
+        forces.apply_force(-weight);
+        forces.apply_angular_impulse(angular);
     }
 }

@@ -2,15 +2,15 @@
 //! integrators' [`ContactHook`], and the impulses it measures for colliders
 //! with [`feedback`](SceneCollider::feedback).
 
-use bevy::math::Vec3;
+use bevy::math::{Isometry3d, Quat, Vec3};
 
 use crate::plugin::collision::scene::{ColliderScene, ContactImpulse, SceneCollider};
 use crate::plugin::components::Cloth;
-use crate::sim::collision::contact::collide_particles;
+use crate::sim::collision::contact::{MovingCollider, collide_particles};
 use crate::sim::collision::predict;
 use crate::sim::collision::self_collision::self_collide;
 use crate::sim::collision::{Counts, SelfCollisionBuffers};
-use crate::sim::integrate::implicit::{ContactBuffers, Hold, SolveContact};
+use crate::sim::integrate::implicit::{ContactBuffers, Hold, SolveBody, SolveContact};
 use crate::sim::step::{ContactHook, Substep};
 use crate::sim::team::both;
 use crate::sim::tether::Tethers;
@@ -26,7 +26,7 @@ pub const SPLIT_PARTICLES: usize = crate::sim::team::SPLIT_PARTICLES;
 /// margin; with `helper`, a cloth of [`SPLIT_PARTICLES`] or more shares the
 /// work with the helper thread.
 fn collide_one(
-    collider: &SceneCollider,
+    (collider, moving): (&SceneCollider, MovingCollider<'_>),
     sub: Substep,
     (thickness, helper): (f32, bool),
     start: &[Vec3],
@@ -34,7 +34,6 @@ fn collide_one(
     v: &mut [Vec3],
     inverse_masses: &[f32],
 ) -> Counts {
-    let moving = collider.between(sub.from, sub.to);
     let thickness = thickness + collider.margin;
     let collide = |start, x, v, w| collide_particles(&moving, start, x, v, w, thickness, sub.dt);
     if !helper || x.len() < SPLIT_PARTICLES {
@@ -77,7 +76,7 @@ pub fn resolve_substep(
     for &c in near {
         let collider = &scene.colliders[c];
         against += collide_one(
-            collider,
+            (collider, collider.between(sub.from, sub.to)),
             sub,
             (thickness, helper),
             start,
@@ -93,17 +92,76 @@ pub fn resolve_substep(
     (against, itself)
 }
 
+/// A free body's velocity change from a substep the implicit solve moved
+/// it in, kept for the rest of the step.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Carried {
+    /// Scene index of the collider.
+    collider: usize,
+    /// Linear (m/s) and angular (rad/s) velocity change.
+    linear: Vec3,
+    angular: Vec3,
+    /// From when (a fraction of the step) it moves so.
+    from: f32,
+}
+
 /// The impulses a cloth's step gave the colliders with feedback, by scene
-/// index (a handful: a linear list).
+/// index (a handful: a linear list), and how the implicit solve moved their
+/// bodies within the step.
 #[derive(Clone, Debug, Default)]
 pub(crate) struct Feedback {
     /// Scene index and impulse on that collider.
     pub(crate) impulses: Vec<(usize, ContactImpulse)>,
     /// Scratch: the velocities before a collider's response, m/s.
     before: Vec<Vec3>,
+    /// The velocity changes the solve gave bodies in this step's substeps
+    /// so far: a body the first substep stopped is not taken as still
+    /// falling in the next.
+    carried: Vec<Carried>,
+    /// The scene index of each of the last solve's bodies.
+    sources: Vec<usize>,
+    /// The substep of the last solve.
+    at: Substep,
 }
 
 impl Feedback {
+    /// `collider` (scene index `c`) over `sub`, moved as the solve moved
+    /// its body in the substeps before: by each velocity change since the
+    /// substep it came from, turning about the body's centre of mass.
+    fn moving<'a>(
+        &self,
+        collider: &'a SceneCollider,
+        c: usize,
+        sub: Substep,
+    ) -> MovingCollider<'a> {
+        let mut moving = collider.between(sub.from, sub.to);
+        if !self.carried.iter().any(|k| k.collider == c) {
+            return moving;
+        }
+        let span = sub.to - sub.from;
+        if span <= 0.0 {
+            return moving;
+        }
+        let step = sub.dt / span;
+        let origin = Vec3::from(collider.start.translation);
+        let shift = |pose: &mut Isometry3d, t: f32| {
+            let (mut linear, mut angular) = (Vec3::ZERO, Vec3::ZERO);
+            for k in self.carried.iter().filter(|k| k.collider == c) {
+                let time = (t - k.from).max(0.0) * step;
+                linear += k.linear * time;
+                angular += k.angular * time;
+            }
+            let turn = Quat::from_scaled_axis(angular);
+            let at = Vec3::from(pose.translation);
+            let centre = collider.centre + (at - origin);
+            pose.rotation = turn * pose.rotation;
+            pose.translation = (centre + turn * (at - centre) + linear).into();
+        };
+        shift(&mut moving.start, sub.from);
+        shift(&mut moving.end, sub.to);
+        moving
+    }
+
     fn entry(&mut self, c: usize) -> &mut ContactImpulse {
         match self.impulses.iter().position(|(i, _)| *i == c) {
             Some(k) => &mut self.impulses[k].1,
@@ -199,7 +257,9 @@ impl ContactHook for SceneContacts<'_> {
             if collider.feedback {
                 self.feedback.mark(v);
             }
-            against += collide_one(collider, sub, (self.thickness, self.helper), start, x, v, w);
+            let moving = self.feedback.moving(collider, c, sub);
+            let both = (collider, moving);
+            against += collide_one(both, sub, (self.thickness, self.helper), start, x, v, w);
             if collider.feedback {
                 self.feedback.measure(c, x, v, all);
             }
@@ -214,13 +274,13 @@ impl ContactHook for SceneContacts<'_> {
                 // A body that gives way moved within the solve: its held
                 // particles are where the solve left them, and the next
                 // step's springs hold what overlap is left.
-                if collider.mass.is_finite() {
+                if collider.body().is_some() {
                     continue;
                 }
                 if collider.feedback {
                     self.feedback.mark(v);
                 }
-                let moving = collider.between(sub.from, sub.to);
+                let moving = self.feedback.moving(collider, c, sub);
                 against.contacts += predict::push_out_held(
                     &moving,
                     held,
@@ -244,19 +304,23 @@ impl ContactHook for SceneContacts<'_> {
         v: &[Vec3],
         w: &[f32],
         out: &mut Vec<SolveContact>,
+        bodies: &mut Vec<SolveBody>,
     ) {
         if !self.in_solve {
             return;
         }
+        if sub.from == 0.0 {
+            self.feedback.carried.clear();
+        }
         for &c in self.near {
             let collider = &self.scene.colliders[c];
-            let moving = collider.between(sub.from, sub.to);
+            let moving = self.feedback.moving(collider, c, sub);
             let from = out.len();
             predict::predict_contacts(
                 &moving,
                 (x, v, w),
-                self.thickness + collider.margin,
-                sub.dt,
+                (self.thickness + collider.margin, sub.dt),
+                collider.body().is_some(),
                 out,
             );
             for contact in &mut out[from..] {
@@ -264,32 +328,60 @@ impl ContactHook for SceneContacts<'_> {
             }
         }
         predict::keep_nearest(out);
-        // A body that gives way shares its mass among its contacts, and the
-        // mass it shows along its surface at each.
+        // A body that gives way moves within the solve, under all its
+        // contacts at once, from where the substeps so far took it.
+        self.feedback.sources.clear();
+        self.feedback.at = sub;
         for &c in self.near {
             let collider = &self.scene.colliders[c];
-            if collider.mass.is_finite() {
-                let source = c as u32;
-                let count = out.iter().filter(|s| s.source == source).count() as f32;
-                for contact in out.iter_mut().filter(|s| s.source == source) {
-                    contact.body_mass = collider.mass / count;
-                    let at = x[contact.particle as usize];
-                    contact.body_tangent_mass = collider.tangent_mass(at, contact.normal) / count;
-                }
+            let Some(mut body) = collider.body() else {
+                continue;
+            };
+            let moving = self.feedback.moving(collider, c, sub);
+            body.centre +=
+                Vec3::from(moving.start.translation) - Vec3::from(collider.start.translation);
+            let source = c as u32;
+            let index = bodies.len() as u32;
+            let mut any = false;
+            for contact in out.iter_mut().filter(|s| s.source == source) {
+                contact.body = index;
+                any = true;
+            }
+            if any {
+                bodies.push(body);
+                self.feedback.sources.push(c);
             }
         }
     }
 
     fn undo(&mut self) {
         self.feedback.impulses.clear();
+        self.feedback.carried.clear();
     }
 
-    fn solved(&mut self, x: &[Vec3], v: &[Vec3], contacts: &ContactBuffers) {
-        for (contact, impulse) in contacts.impulses() {
+    fn solved(&mut self, _x: &[Vec3], v: &[Vec3], contacts: &ContactBuffers) {
+        // The bodies the solve moved move so for the rest of the step.
+        let Feedback {
+            sources,
+            carried,
+            at,
+            ..
+        } = &mut *self.feedback;
+        for (b, &collider) in sources.iter().enumerate() {
+            let [linear, angular] = contacts.body_change(b);
+            if linear != Vec3::ZERO || angular != Vec3::ZERO {
+                carried.push(Carried {
+                    collider,
+                    linear,
+                    angular,
+                    from: at.to,
+                });
+            }
+        }
+        for (contact, impulse, at) in contacts.impulses() {
             let c = contact.source as usize;
             let p = contact.particle as usize;
-            if let (Some(collider), Some(&at), Some(&moving)) =
-                (self.scene.colliders.get(c), x.get(p), v.get(p))
+            if let (Some(collider), Some(&moving)) = (self.scene.colliders.get(c), v.get(p))
                 && collider.feedback
             {
                 self.feedback.entry(c).add_at(-impulse, at, moving);

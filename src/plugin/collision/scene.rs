@@ -10,6 +10,7 @@ use bevy::prelude::*;
 use crate::error::ClothError;
 use crate::plugin::collision::{ColliderShape, MeshShape};
 use crate::sim::collision::contact::{Geometry, MovingCollider};
+use crate::sim::integrate::implicit::SolveBody;
 
 /// The system set, in [`ClothSystems::Prepare`](crate::plugin::schedule::ClothSystems::Prepare),
 /// in which collider sources push this step's colliders into the
@@ -124,9 +125,13 @@ pub struct SceneCollider {
     pub centre: Vec3,
     /// The body's inverse inertia tensor at the start of the step (world,
     /// 1/(kg·m²)); zero (the default) for a body that does not turn. With
-    /// [`mass`](Self::mass) it sets the mass the body shows along its
-    /// surface at a contact, which the implicit solve's friction takes in.
+    /// [`mass`](Self::mass) it sets how the body turns when the cloth
+    /// pushes or rubs it off its centre.
     pub inverse_inertia: Mat3,
+    /// The acceleration (m/s²) the body's own engine gives it over the
+    /// step besides the cloth (its gravity): the implicit solve counts it,
+    /// so a body resting on the cloth stays at rest. Zero by default.
+    pub acceleration: Vec3,
 }
 
 impl SceneCollider {
@@ -149,6 +154,7 @@ impl SceneCollider {
             mass: f32::INFINITY,
             centre: Vec3::ZERO,
             inverse_inertia: Mat3::ZERO,
+            acceleration: Vec3::ZERO,
         };
         collider.update_bounds();
         collider
@@ -201,33 +207,23 @@ impl SceneCollider {
         self
     }
 
-    /// The mass (kg) the body shows to a push along the surface at `point`
-    /// (world, m) with outward normal `normal`: its mass and its turning
-    /// about its centre together, for the direction in the surface in which
-    /// it gives way most. Infinite for a body that does not give way.
-    pub fn tangent_mass(&self, point: Vec3, normal: Vec3) -> f32 {
-        if !self.mass.is_finite() {
-            return f32::INFINITY;
-        }
-        // K = I/m + [r×]ᵀ I⁻¹ [r×]: the velocity the contact point gains per
-        // unit impulse. Its largest value over the tangent plane.
-        let r = point - self.centre;
-        let cross = Mat3::from_cols(
-            Vec3::new(0.0, r.z, -r.y),
-            Vec3::new(-r.z, 0.0, r.x),
-            Vec3::new(r.y, -r.x, 0.0),
-        );
-        let k = Mat3::from_diagonal(Vec3::splat(1.0 / self.mass))
-            + cross.transpose() * self.inverse_inertia * cross;
-        let t1 = normal.any_orthonormal_vector();
-        let t2 = normal.cross(t1);
-        let (a, b, d) = (t1.dot(k * t1), t1.dot(k * t2), t2.dot(k * t2));
-        let largest = 0.5 * (a + d) + (0.25 * (a - d) * (a - d) + b * b).sqrt();
-        if largest.is_finite() && largest > 0.0 {
-            (1.0 / largest).min(self.mass)
-        } else {
-            self.mass
-        }
+    /// With the body's engine accelerating it at `acceleration` m/s² over
+    /// the step (see [`acceleration`](Self::acceleration)).
+    pub fn with_acceleration(mut self, acceleration: Vec3) -> Self {
+        self.acceleration = acceleration;
+        self
+    }
+
+    /// The free body behind the collider, as the implicit solve moves it
+    /// within the step; `None` for a collider that does not give way.
+    pub fn body(&self) -> Option<SolveBody> {
+        let body = SolveBody {
+            mass: self.mass,
+            centre: self.centre,
+            inverse_inertia: self.inverse_inertia,
+            acceleration: self.acceleration,
+        };
+        body.is_usable().then_some(body)
     }
 
     /// Recomputes [`min`](Self::min)/[`max`](Self::max) from the shape,
@@ -367,30 +363,6 @@ impl ContactImpulse {
             weight: impulse.length(),
         };
     }
-
-    /// The share (0 … 1) of this impulse a body of velocity `velocity`
-    /// (m/s) and mass `mass` (kg) should take: all of it, unless it would
-    /// leave the body faster along the impulse than the cloth there moves
-    /// that way, plus what one step of gravity (`gravity_step`, m/s) takes
-    /// back. A contact with cloth is at most inelastic: a cloth that
-    /// rebounds carries the body with it, but one caught over-stretched by
-    /// a body the step took as moving on does not throw it. Bridges scale
-    /// the impulse by it before applying it.
-    pub fn inelastic_share(&self, velocity: Vec3, mass: f32, gravity_step: Vec3) -> f32 {
-        let size = self.linear.length();
-        if !(size > 0.0 && mass.is_finite() && mass > 0.0) {
-            return 1.0;
-        }
-        let along = self.linear / size;
-        let cloth = self.cloth_velocity.dot(along).max(0.0);
-        let ceiling = cloth + (-gravity_step.dot(along)).max(0.0);
-        let room = mass * (ceiling - velocity.dot(along));
-        if room >= size {
-            1.0
-        } else {
-            (room / size).max(0.0)
-        }
-    }
 }
 
 impl std::ops::AddAssign for ContactImpulse {
@@ -441,32 +413,3 @@ impl ClothContactImpulses {
 #[derive(Component, Clone, Copy, Debug, Default, Reflect)]
 #[reflect(Component, Default)]
 pub struct ReportClothImpulses;
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::sim::collision::shapes::Shape;
-
-    #[test]
-    fn a_ball_shows_two_sevenths_of_its_mass_along_its_surface() {
-        // A solid ball (I = ⅖ m r²) rubbed at its top rolls as it slides:
-        // 1/m_t = 1/m + r²/I = 7/(2m).
-        let (m, r) = (2.0, 0.1);
-        let at = Isometry3d::from_translation(Vec3::Y);
-        let ball = SceneCollider::new(
-            Entity::PLACEHOLDER,
-            ColliderShape::Analytic(Shape::Sphere { radius: r }),
-            at,
-            at,
-        )
-        .with_mass(m)
-        .with_inertia(Vec3::Y, Mat3::from_diagonal(Vec3::splat(2.5 / (m * r * r))));
-        let top = ball.tangent_mass(Vec3::new(0.0, 1.0 + r, 0.0), Vec3::Y);
-        assert!((top - 2.0 / 7.0 * m).abs() < 1e-5, "{top}");
-        // Without turning it is its mass; a fixed surface does not give way.
-        let sliding = ball.clone().with_inertia(Vec3::Y, Mat3::ZERO);
-        assert!((sliding.tangent_mass(Vec3::new(0.0, 1.1, 0.0), Vec3::Y) - m).abs() < 1e-6);
-        let fixed = ball.with_mass(f32::INFINITY);
-        assert_eq!(fixed.tangent_mass(Vec3::ZERO, Vec3::Y), f32::INFINITY);
-    }
-}

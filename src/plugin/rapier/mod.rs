@@ -49,7 +49,8 @@ use bevy::prelude::*;
 use bevy::time::Fixed;
 use bevy_rapier3d::plugin::PhysicsSet;
 use bevy_rapier3d::prelude::{
-    ExternalImpulse, RapierConfiguration, RapierContextColliders, RapierRigidBodySet, Velocity,
+    ExternalForce, ExternalImpulse, RapierConfiguration, RapierContextColliders,
+    RapierRigidBodySet, Velocity,
 };
 use bevy_rapier3d::rapier::dynamics::{CoefficientCombineRule, RigidBody};
 use bevy_rapier3d::rapier::geometry::Collider;
@@ -131,6 +132,7 @@ impl Plugin for ClothRapierPlugin {
             .get_resource::<ClothSchedule>()
             .map_or(FixedUpdate.intern(), |s| s.0);
         app.insert_resource(ClothRapierSettings(self.clone()))
+            .init_resource::<HeldUp>()
             .configure_sets(
                 schedule,
                 ClothSystems::Writeback.before(PhysicsSet::SyncBackend),
@@ -142,7 +144,9 @@ impl Plugin for ClothRapierPlugin {
                         .run_if(any_with_component::<RapierContextColliders>)
                         .in_set(ClothColliderSources),
                     push_bodies
-                        .run_if(|i: Res<ClothContactImpulses>| !i.is_empty())
+                        .run_if(|i: Res<ClothContactImpulses>, lifted: Res<HeldUp>| {
+                            !(i.is_empty() && lifted.0.is_empty())
+                        })
                         .in_set(ClothSystems::Writeback),
                 ),
             );
@@ -192,7 +196,11 @@ fn feed_colliders(
     _main: MainThread,
     time: Res<Time<Fixed>>,
     settings: Res<ClothRapierSettings>,
-    contexts: Query<(&RapierContextColliders, &RapierRigidBodySet)>,
+    contexts: Query<(
+        &RapierContextColliders,
+        &RapierRigidBodySet,
+        Option<&RapierConfiguration>,
+    )>,
     elsewhere: Query<(), Elsewhere>,
     velocities: Query<&Velocity>,
     mut scene: ResMut<ColliderScene>,
@@ -204,7 +212,8 @@ fn feed_colliders(
     for cached in cache.values_mut() {
         cached.seen = false;
     }
-    for (colliders, bodies) in &contexts {
+    for (colliders, bodies, config) in &contexts {
+        let gravity = config.map_or(Vec3::ZERO, |c| c.gravity);
         for (_, collider) in colliders.colliders.iter() {
             if !collider.is_enabled() || collider.is_sensor() {
                 continue;
@@ -246,12 +255,14 @@ fn feed_colliders(
             let mut dynamic = false;
             let mut mass = f32::INFINITY;
             let mut inverse_inertia = Mat3::ZERO;
+            let mut acceleration = Vec3::ZERO;
             if let Some(body) = body
                 && !body.is_fixed()
             {
                 dynamic = body.is_dynamic();
                 if dynamic && settings.two_way && body.mass() > 0.0 {
                     mass = body.mass();
+                    acceleration = gravity * body.gravity_scale();
                     let i = body.mass_properties().effective_world_inv_inertia;
                     inverse_inertia = Mat3::from_cols(
                         Vec3::new(i.m11, i.m12, i.m13),
@@ -300,7 +311,8 @@ fn feed_colliders(
                 .with_layers(layers)
                 .with_feedback(dynamic && settings.two_way)
                 .with_mass(mass)
-                .with_inertia(motion.centre, inverse_inertia);
+                .with_inertia(motion.centre, inverse_inertia)
+                .with_acceleration(acceleration);
                 if let Err(error) = scene.push(scene_collider)
                     && warned.insert(entity)
                 {
@@ -312,9 +324,27 @@ fn feed_colliders(
     cache.retain(|_, cached| cached.seen);
 }
 
+/// The bodies whose gravity [`push_bodies`] cancelled over the last step:
+/// the weight (N) it held up and the `ExternalForce` it left.
+#[derive(Resource, Default)]
+struct HeldUp(HashMap<Entity, (Vec3, Vec3)>);
+
 /// [`ClothSystems::Writeback`]: the cloth's impulses on each dynamic body,
 /// added to its `ExternalImpulse`, linear and angular about its centre of
 /// mass.
+///
+/// The solve moved the body as backward Euler does, its position changing
+/// by the step times its velocity at the end, gravity included; rapier
+/// integrates gravity over its substeps, which would leave a body the cloth
+/// holds up a little higher and with a few cm/s downwards. So for each step
+/// in which the cloth touches it, the body's gravity comes as part of the
+/// impulse, and an `ExternalForce` against its weight cancels rapier's. It
+/// is taken off again the step after, unless the game has written that
+/// `ExternalForce` since (which replaced it).
+#[expect(
+    clippy::too_many_arguments,
+    reason = "a Bevy system: each parameter is one resource or query"
+)]
 fn push_bodies(
     _main: MainThread,
     mut commands: Commands,
@@ -325,10 +355,13 @@ fn push_bodies(
         &RapierRigidBodySet,
         Option<&RapierConfiguration>,
     )>,
-    mut pending: Query<&mut ExternalImpulse>,
-    mut fresh: Local<HashMap<Entity, ExternalImpulse>>,
+    mut pending: Query<(Option<&mut ExternalImpulse>, Option<&mut ExternalForce>)>,
+    mut fresh: Local<HashMap<Entity, (ExternalImpulse, ExternalForce)>>,
+    mut lifted: ResMut<HeldUp>,
 ) {
     let dt = time.timestep().as_secs_f32();
+    // The weight each body touched now is held up by (N).
+    let mut now: HashMap<Entity, Vec3> = HashMap::default();
     for (entity, impulse) in impulses.iter() {
         if !(impulse.linear.is_finite() && impulse.angular.is_finite()) {
             continue;
@@ -344,23 +377,53 @@ fn push_bodies(
         if !body.is_dynamic() || mass.is_nan() || mass <= 0.0 {
             continue;
         }
-        let queued = pending
-            .get(body_entity)
-            .ok()
-            .or(fresh.get(&body_entity))
-            .map_or(Vec3::ZERO, |e| e.impulse);
-        let velocity = body.linvel() + queued / mass;
-        let scale = impulse.inelastic_share(velocity, mass, gravity * dt);
-        let add = ExternalImpulse {
-            impulse: scale * impulse.linear,
-            torque_impulse: scale * impulse.angular_about(body.center_of_mass()),
+        let mut add = ExternalImpulse {
+            impulse: impulse.linear,
+            torque_impulse: impulse.angular_about(body.center_of_mass()),
         };
+        let weight = mass * body.gravity_scale() * gravity;
+        if weight.is_finite() && !now.contains_key(&body_entity) {
+            now.insert(body_entity, weight);
+            add.impulse += weight * dt;
+        }
         match pending.get_mut(body_entity) {
-            Ok(mut queued) => *queued += add,
-            Err(_) => *fresh.entry(body_entity).or_default() += add,
+            Ok((Some(mut queued), _)) => *queued += add,
+            _ => fresh.entry(body_entity).or_default().0 += add,
         }
     }
-    for (body, impulse) in fresh.drain() {
-        commands.entity(body).try_insert(impulse);
+    // The force cancelling gravity: last step's taken off (unless the game
+    // replaced it since: `lifted` holds the weight and the force left),
+    // this step's put on.
+    let mut left = HashMap::default();
+    for (body, (weight, force_left)) in lifted.0.drain() {
+        if let Ok((_, Some(mut force))) = pending.get_mut(body)
+            && force.force == force_left
+        {
+            force.force += weight;
+        }
+    }
+    for (&body, &weight) in now.iter() {
+        let force = match pending.get_mut(body) {
+            Ok((_, Some(mut force))) => {
+                force.force -= weight;
+                force.force
+            }
+            _ => {
+                let force = &mut fresh.entry(body).or_default().1.force;
+                *force -= weight;
+                *force
+            }
+        };
+        left.insert(body, (weight, force));
+    }
+    lifted.0 = left;
+    for (body, (impulse, force)) in fresh.drain() {
+        let mut body = commands.entity(body);
+        if impulse != ExternalImpulse::default() {
+            body.try_insert(impulse);
+        }
+        if force != ExternalForce::default() {
+            body.try_insert(force);
+        }
     }
 }

@@ -1,14 +1,15 @@
 //! The contacts an implicit step is to hold
 //! ([`integrate::implicit::contacts`](crate::sim::integrate::implicit::contacts)):
 //! every free particle that touches a collider at the start of the step,
-//! or will within it if it keeps its velocity relative to the surface.
+//! or will within it if it keeps its velocity relative to the surface; next
+//! to a free body, every particle within reach of the two motions.
 
 use bevy::math::{Affine3A, Vec3};
 
 use super::contact::{Geometry, MovingCollider};
 use super::shapes::sweep;
 use super::trimesh::{TriMesh, closest_point_on_triangle, segment_triangle};
-use crate::sim::integrate::implicit::{Hold, SolveContact};
+use crate::sim::integrate::implicit::{Hold, NO_BODY, SolveContact};
 
 /// How far outside the contact thickness (m) a particle still counts as
 /// touching: a sheet at rest sits at the thickness, give or take rounding.
@@ -18,11 +19,17 @@ const TOUCH: f32 = 1e-4;
 /// end of a step of `dt` s) of the free particles at `x` (m) moving at `v`
 /// (m/s), for a contact thickness of `thickness` m. Several colliders may
 /// list the same particle; [`keep_nearest`] keeps the nearest.
+///
+/// With `free`, the collider is a free body that the solve moves with the
+/// cloth, and a particle leaving its surface within reach is listed too: a
+/// light body and the cloth part and meet again within a step, driven by
+/// forces the particles' velocities do not show, and the solve decides
+/// with those forces whether it holds the particle.
 pub fn predict_contacts(
     collider: &MovingCollider,
     (x, v, inverse_masses): (&[Vec3], &[Vec3], &[f32]),
-    thickness: f32,
-    dt: f32,
+    (thickness, dt): (f32, f32),
+    free: bool,
     out: &mut Vec<SolveContact>,
 ) {
     let to_local = Affine3A::from(collider.start.inverse());
@@ -51,7 +58,7 @@ pub fn predict_contacts(
             continue;
         }
         let approach = gap + dt * (vp - velocity).dot(normal);
-        if gap <= TOUCH || approach < 0.0 {
+        if gap <= TOUCH || approach < 0.0 || free {
             out.push(SolveContact {
                 particle: p as u32,
                 normal,
@@ -59,8 +66,7 @@ pub fn predict_contacts(
                 velocity,
                 friction: collider.friction,
                 source: 0,
-                body_mass: f32::INFINITY,
-                body_tangent_mass: f32::INFINITY,
+                body: NO_BODY,
             });
         }
     }
@@ -198,7 +204,7 @@ mod tests {
         let v = [Vec3::ZERO, -Vec3::Y, Vec3::Y, -Vec3::Y, Vec3::ZERO];
         let w = [1.0, 1.0, 1.0, 1.0, 0.0];
         let mut out = Vec::new();
-        predict_contacts(&floor(2.0), (&x, &v, &w), 0.01, 0.1, &mut out);
+        predict_contacts(&floor(2.0), (&x, &v, &w), (0.01, 0.1), false, &mut out);
         let listed: Vec<u32> = out.iter().map(|c| c.particle).collect();
         assert_eq!(listed, [0, 1]);
         assert!(out[0].gap.abs() < 1e-6 && (out[1].gap - 0.04).abs() < 1e-6);
@@ -217,8 +223,7 @@ mod tests {
             velocity: Vec3::ZERO,
             friction: 0.0,
             source: 0,
-            body_mass: f32::INFINITY,
-            body_tangent_mass: f32::INFINITY,
+            body: NO_BODY,
         };
         let mut list = vec![c(3, 0.0), c(1, 0.2), c(3, -0.1), c(1, 0.1)];
         keep_nearest(&mut list);

@@ -38,7 +38,7 @@ use coarse::Coarse;
 use halves::Halves;
 use mesh_coarse::MeshCoarse;
 
-pub use contacts::{ContactBuffers, Hold, SolveContact};
+pub use contacts::{ContactBuffers, Hold, NO_BODY, SolveBody, SolveContact};
 
 use crate::sim::team;
 use operator::{Operator, Soa, dot};
@@ -381,6 +381,7 @@ fn linearise(
 ) {
     assemble(dynamics, (x, v, w), alpha, beta, buffers);
     buffers.op.extra.clear();
+    buffers.op.coupling.clear();
     build(dynamics, dynamics.inverse_masses, alpha, beta, buffers);
 }
 
@@ -514,7 +515,7 @@ fn linearise_held(
     let held = contacts.begin(
         dynamics.inverse_masses,
         force,
-        v,
+        (x, v),
         displacement,
         (alpha, beta, h),
     );
@@ -533,7 +534,9 @@ fn build_held(dynamics: &Dynamics, (alpha, beta): (f32, f32), buffers: &mut Impl
         ..
     } = buffers;
     contact_rhs.clear();
-    contacts.emit(&mut op.extra, |p, r| contact_rhs.push((p, r)));
+    contacts.emit(&mut op.extra, &mut op.coupling, |p, r| {
+        contact_rhs.push((p, r))
+    });
     build(dynamics, dynamics.inverse_masses, alpha, beta, buffers);
 }
 
@@ -593,14 +596,38 @@ fn backward_euler_step(
     };
     fill(buffers);
     solve(dynamics, buffers);
+    if held && release_pulling(buffers, (h, h)) {
+        build_held(dynamics, (h, h * h), buffers);
+        fill(buffers);
+        solve(dynamics, buffers);
+    }
     for i in 0..x.len() {
         v[i] += buffers.dv.get(i);
         x[i] += h * v[i];
     }
     if held {
-        let ImplicitBuffers { contacts, dv, .. } = buffers;
-        contacts.finish((x, v), |i| dv.get(i), (h, h));
+        let ImplicitBuffers {
+            contacts, dv, op, ..
+        } = buffers;
+        op.coupling.solved(|i| dv.get(i));
+        contacts.finish((x, v), |i| dv.get(i), &op.coupling, (h, h));
     }
+}
+
+/// After a solve that held contacts with free bodies: lets go of those
+/// whose spring ended up pulling ([`ContactBuffers::release_pulling`]);
+/// whether any was, and the step is to be solved again without them (`γ`,
+/// `h` in s). One pass: a contact the second solve would let go of too
+/// pulls for that step, as a contact with a fixed surface does.
+fn release_pulling(buffers: &mut ImplicitBuffers, steps: (f32, f32)) -> bool {
+    let ImplicitBuffers {
+        contacts, dv, op, ..
+    } = buffers;
+    if op.coupling.is_empty() {
+        return false;
+    }
+    op.coupling.solved(|i| dv.get(i));
+    contacts.release_pulling(|i| dv.get(i), &op.coupling, steps)
 }
 
 /// Adds the sliding contacts' terms to the right-hand side.
@@ -685,6 +712,11 @@ pub fn bdf2(
     };
     fill(buffers);
     solve(dynamics, buffers);
+    if held && release_pulling(buffers, (alpha, h)) {
+        build_held(dynamics, (alpha, beta), buffers);
+        fill(buffers);
+        solve(dynamics, buffers);
+    }
     for i in 0..x.len() {
         let (xn, vn) = (x[i], v[i]);
         let v1 = vn + buffers.dv.get(i);
@@ -701,8 +733,11 @@ pub fn bdf2(
         v[i] = v1;
     }
     if held {
-        let ImplicitBuffers { contacts, dv, .. } = buffers;
-        contacts.finish((x, v), |i| dv.get(i), (alpha, h));
+        let ImplicitBuffers {
+            contacts, dv, op, ..
+        } = buffers;
+        op.coupling.solved(|i| dv.get(i));
+        contacts.finish((x, v), |i| dv.get(i), &op.coupling, (alpha, h));
     }
     buffers.expected_x.copy_from_slice(x);
 }
@@ -767,6 +802,7 @@ pub fn newton_correction(
 #[cfg(test)]
 mod tests;
 
+mod bodies;
 mod coarse;
 pub mod contacts;
 mod halves;

@@ -8,8 +8,9 @@
 //! terms on its diagonal block, both implicit, so both hold at any step:
 //!
 //! - **Normal**: a stiff spring `k n nᵀ`, `k = κ m/γ²` (`κ` =
-//!   [`KAPPA`], `m` the particle's mass, `γ` the step's velocity-to-
-//!   position factor, `h` for backward Euler), whose rest is the contact
+//!   [`KAPPA`], `m` the particle's mass, or against a free body its share
+//!   of the body's mass up to [`BODY_STIFFENING`] times that, `γ` the
+//!   step's velocity-to-position factor, `h` for backward Euler), whose rest is the contact
 //!   thickness: the solve keeps the particle on the surface to within
 //!   `1/(1 + κ)` of its motion into it, and the rest of the cloth feels the
 //!   support within the same step. This is the implicit penalty form of
@@ -26,18 +27,18 @@
 //!   step on (the lagged, smoothed friction of implicit contact solvers,
 //!   after Bridson et al. 2002).
 //!
-//! **A body that gives way.** A contact with a free body of mass `M`
-//! (shared among the body's contacts: [`SolveContact::body_mass`]) is held
-//! by the same spring in series with the body's inertia: the body moves
-//! `−γ² λ / M` along the normal within the step as the spring pushes it,
-//! which leaves the spring `k / (1 + κ m / M)`. A heavy body (`M ≫ κ m`)
-//! holds the particle as a fixed surface does; a light one is pushed along
-//! with the particle's motion, and the cloth feels its inertia within the
-//! solve rather than a step late. Friction is held in series with the mass
-//! the body shows along its surface there ([`SolveContact::body_tangent_mass`],
-//! its turning included): a light or spinning body that the cloth rubs is
-//! carried along, not flung past the cloth's motion. The caller applies the
-//! impulses ([`ContactBuffers::impulses`]) to the body after the step.
+//! **A body that gives way.** A contact with a free body ([`SolveContact::body`],
+//! one of [`ContactBuffers::bodies`]) holds its particle relative to the
+//! body's surface, and the body moves within the same solve under all its
+//! contacts' impulses at once, turning as well as moving (`bodies.rs`): a
+//! heavy body holds the cloth as a fixed surface does, a light one is
+//! pushed along, and a ball in a pocket is held by every side of it
+//! together. Its sliding friction is a damping `μ λ / speed` as well, held
+//! in step with the body, so friction never turns a light body past the
+//! cloth. A contact whose spring ends up pulling the body (the particle
+//! was leaving it) is let go and the step solved again without it. The
+//! caller applies the impulses ([`ContactBuffers::impulses`]) to the body
+//! after the step.
 //!
 //! After the solve the spring gives the contact force `λ` of the step: a
 //! pulling one means the particle was leaving, and the spring held it back
@@ -45,6 +46,9 @@
 //! sets the next step's friction.
 
 use bevy::math::Vec3;
+
+use super::bodies::Coupling;
+pub use super::bodies::SolveBody;
 
 /// A particle touching a collider, or about to within the step.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -64,16 +68,14 @@ pub struct SolveContact {
     /// them: the solve does not read it, and hands it back with the
     /// contact's impulse ([`ContactBuffers::impulses`]).
     pub source: u32,
-    /// The mass (kg) of the body behind the surface that this contact
-    /// moves: the body's mass shared among its contacts, or infinite for a
-    /// surface that does not give way (module docs).
-    pub body_mass: f32,
-    /// The mass (kg) the body shows along the surface at this contact, its
-    /// turning included, shared among its contacts as
-    /// [`body_mass`](Self::body_mass) is; infinite for a surface that does
-    /// not give way. Friction takes it in (module docs).
-    pub body_tangent_mass: f32,
+    /// The free body behind the surface, as an index into
+    /// [`ContactBuffers::bodies`], or [`NO_BODY`] for a surface that moves
+    /// as it was going to whatever the cloth does.
+    pub body: u32,
 }
+
+/// [`SolveContact::body`] of a surface with no free body behind it.
+pub const NO_BODY: u32 = u32::MAX;
 
 /// How the solve held a particle in the last step.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -90,6 +92,16 @@ pub enum Hold {
 /// Normal stiffness of a contact in units of the particle's mass over the
 /// step squared (dimensionless, module docs).
 pub const KAPPA: f32 = 1000.0;
+
+/// The most a contact with a free body is stiffened over one with a fixed
+/// surface (dimensionless, module docs): beyond it, the contact's force,
+/// the product of a stiffness and a stretch of a few nanometres, loses
+/// its precision in `f32`.
+pub const BODY_STIFFENING: f32 = 10.0;
+
+/// The fastest (m/s) a particle found inside a free body is brought out
+/// of it (module docs).
+pub const DEPENETRATION_SPEED: f32 = 1.0;
 
 /// The speed (m/s) below which friction holds rather than slides (module
 /// docs): the fastest a particle whose load is within the friction cone can
@@ -114,11 +126,19 @@ struct Held {
     k: f32,
     /// The particle's mass, kg.
     mass: f32,
+    /// The particle's position at the start of the step, m.
+    start: Vec3,
+    /// The contact's gap (m, [`SolveContact::gap`]), or against a free body
+    /// the part of an overlap the step takes out.
+    gap: f32,
     /// The displacement the step gives the particle besides `γ Δv`, m.
     displacement: Vec3,
     /// How far into the surface that displacement would take it, m (the
     /// spring's stretch before `γ Δv`).
     reach: f32,
+    /// The free body it holds against, and the particle's offset from the
+    /// body's centre of mass (m).
+    body: Option<(u32, Vec3)>,
     /// The particle's velocity along the surface relative to it at the
     /// start of the step, m/s.
     along: Vec3,
@@ -130,6 +150,9 @@ struct Held {
 pub struct ContactBuffers {
     /// This step's contacts, listed by the caller before the step.
     pub list: Vec<SolveContact>,
+    /// The free bodies behind them ([`SolveContact::body`]), listed by the
+    /// caller with them.
+    pub bodies: Vec<SolveBody>,
     /// How each particle was held in the last step.
     pub(super) hold: Vec<Hold>,
     /// Each particle's normal force in the last step (N; 0 when free).
@@ -138,11 +161,17 @@ pub struct ContactBuffers {
     pub(super) any: bool,
     /// This step's held contacts.
     held: Vec<Held>,
-    /// `α`, `β` of this step's solve.
-    factors: (f32, f32),
+    /// `α`, `β` and the step `h` (s) of this step's solve.
+    factors: (f32, f32, f32),
+    /// Each body's velocity change in the last solve: linear (m/s) and
+    /// angular (rad/s), by index into `bodies` (zero for one not moved).
+    changes: Vec<[Vec3; 2]>,
+    /// Scratch: the coupled contacts by body, and each body's count.
+    links: Vec<(u32, u32, [f32; 6], Vec3, Vec3)>,
+    counts: Vec<f32>,
     /// The impulse (N·s) each held contact gave its particle in the last
     /// solve, with the contact's index in `list`.
-    impulses: Vec<(u32, Vec3)>,
+    impulses: Vec<(u32, Vec3, Vec3)>,
 }
 
 impl ContactBuffers {
@@ -163,46 +192,67 @@ impl ContactBuffers {
 
     /// The impulse (N·s) each contact of [`list`](Self::list) held in the
     /// last solve gave its particle: the normal spring's and the friction's,
-    /// over the step (a pulling spring's too, so that momentum adds up). The
-    /// collider feels the opposite.
-    pub fn impulses(&self) -> impl Iterator<Item = (&SolveContact, Vec3)> + '_ {
+    /// over the step (a pulling spring's too, so that momentum adds up),
+    /// with the point where it acted: the particle at the start of the step
+    /// (m), as the solve turned a free body about it. The collider feels
+    /// the opposite.
+    pub fn impulses(&self) -> impl Iterator<Item = (&SolveContact, Vec3, Vec3)> + '_ {
         self.impulses
             .iter()
-            .filter_map(|&(i, j)| self.list.get(i as usize).map(|c| (c, j)))
+            .filter_map(|&(i, j, at)| self.list.get(i as usize).map(|c| (c, j, at)))
+    }
+
+    /// The velocity change the last solve gave body `body` (an index into
+    /// [`bodies`](Self::bodies)), gravity included: linear (m/s) and
+    /// angular (rad/s); zero for a body it did not move.
+    pub fn body_change(&self, body: usize) -> [Vec3; 2] {
+        self.changes.get(body).copied().unwrap_or([Vec3::ZERO; 2])
     }
 
     /// Forgets every hold (a reset, a teleport).
     pub fn clear(&mut self) {
         self.impulses.clear();
+        self.changes.clear();
         self.hold.clear();
         self.load.clear();
         self.any = false;
     }
 
     /// Decides how this step holds its contacts, once the forces at the
-    /// start of the step are known (`force`, N, total on each particle; `v`
-    /// the velocities, m/s). `D = scale · displacement` is what the step
-    /// moves each particle besides `γ Δv` (m; backward Euler: `h v₀`); `α`,
-    /// `β` as in the solve, `β = αγ`; `h` the step (s). Returns whether any
-    /// contact is held; [`emit`](Self::emit) gives the solve its terms.
+    /// start of the step are known (`force`, N, total on each particle; `x`,
+    /// `v` the positions and velocities, m and m/s). `D = scale ·
+    /// displacement` is what the step moves each particle besides `γ Δv`
+    /// (m; backward Euler: `h v₀`); `α`, `β` as in the solve, `β = αγ`; `h`
+    /// the step (s). Returns whether any contact is held;
+    /// [`emit`](Self::emit) gives the solve its terms.
     pub(super) fn begin(
         &mut self,
         inverse_masses: &[f32],
         force: &[Vec3],
-        v: &[Vec3],
+        (x, v): (&[Vec3], &[Vec3]),
         (displacement, scale): (&[Vec3], f32),
         (alpha, beta, h): (f32, f32, f32),
     ) -> bool {
         let n = inverse_masses.len();
         self.held.clear();
         self.impulses.clear();
-        self.factors = (alpha, beta);
+        self.changes.clear();
+        self.factors = (alpha, beta, h);
         if self.list.is_empty() {
             self.clear();
             return false;
         }
         self.hold.resize(n, Hold::Free);
         self.load.resize(n, 0.0);
+        // How many contacts each free body has: each shows its share of
+        // the body's mass along the surface to sliding friction.
+        self.counts.clear();
+        self.counts.resize(self.bodies.len(), 0.0);
+        for c in &self.list {
+            if let Some(count) = self.counts.get_mut(c.body as usize) {
+                *count += 1.0;
+            }
+        }
         let gamma = beta / alpha;
         for (index, c) in self.list.iter().enumerate() {
             let p = c.particle as usize;
@@ -212,10 +262,23 @@ impl ContactBuffers {
             };
             let d = scale * displacement[p];
             let pressure = -force[p].dot(c.normal);
-            let reach = -c.gap - (d - h * c.velocity).dot(c.normal);
+            let body = self
+                .bodies
+                .get(c.body as usize)
+                .filter(|b| b.is_usable())
+                .map(|b| (c.body, x[p] - b.centre, b));
+            // A particle deep inside a free body (its engine pushed the body
+            // into the cloth between steps: a light ball squeezed by a heavy
+            // one) comes out at most at DEPENETRATION_SPEED: out in one
+            // step, it would fling the body.
+            let gap = match body {
+                Some(_) => c.gap.max(-DEPENETRATION_SPEED * h),
+                None => c.gap,
+            };
+            let reach = -gap - (d - h * c.velocity).dot(c.normal);
             // Outside and staying outside without the contact (its motion
             // and the forces carry it clear): not held.
-            if c.gap >= 0.0 && -reach - h * h * w * pressure >= 0.0 {
+            if gap >= 0.0 && -reach - h * h * w * pressure >= 0.0 {
                 continue;
             }
             let relative = v[p] - c.velocity;
@@ -226,24 +289,36 @@ impl ContactBuffers {
             // it rather than let it reverse). Otherwise held, by a damping
             // that lets it creep below the stick speed: a load past the
             // cone moves it faster than that, and it slides from the next
-            // step on.
-            // A body that gives way along the surface takes the friction in
-            // series with its inertia there, as the normal spring does: it
-            // never drives the two past moving together.
-            let body = c.body_tangent_mass;
-            let friction = if speed > STICK_SPEED {
+            // step on. On a free body the sliding force is a damping too,
+            // `μ λ / speed`, which the solve holds in step with the body:
+            // as an impulse fixed at the start of the step it would turn a
+            // light body past the cloth, and back the next step.
+            let friction = if speed > STICK_SPEED && body.is_none() {
                 let kinetic = alpha * c.friction * load;
-                Friction::Slide(kinetic.min(body * speed) / speed * along)
+                Friction::Slide(kinetic / speed * along)
             } else {
-                let damping = c.friction * load / STICK_SPEED;
-                Friction::Hold(damping / (1.0 + alpha * damping / body))
+                Friction::Hold(c.friction * load / speed.max(STICK_SPEED))
+            };
+            // Against a free body the spring takes the body's share of its
+            // mass, up to [`BODY_STIFFENING`] times the particle's, so that
+            // the body's weight does not press a spring sized for a particle
+            // of cloth far into it (a 5 kg ball on 11 contacts of 0.8 g
+            // particles: 0.16 mm rather than 1.6 mm).
+            let stiffening = match body {
+                Some((k, _, b)) => {
+                    (b.mass * w / self.counts[k as usize]).clamp(1.0, BODY_STIFFENING)
+                }
+                None => 1.0,
             };
             self.held.push(Held {
                 index,
-                k: KAPPA / (w * gamma * gamma) / (1.0 + KAPPA / (w * c.body_mass)),
+                k: stiffening * KAPPA / (w * gamma * gamma),
                 mass: 1.0 / w,
+                start: x[p],
+                gap,
                 displacement: d,
                 reach,
+                body: body.map(|(k, r, _)| (k, r)),
                 along,
                 friction,
             });
@@ -255,12 +330,19 @@ impl ContactBuffers {
     }
 
     /// The solve's terms of the held contacts: each one's diagonal block
-    /// `β k n nᵀ + α c (I − n nᵀ)` into `extra` (sorted by particle), and
-    /// its right-hand side, `α k reach n` less the friction's impulse at
-    /// the start of the step, through `rhs`.
-    pub(super) fn emit(&self, extra: &mut Vec<(u32, [f32; 6])>, mut rhs: impl FnMut(usize, Vec3)) {
-        let (alpha, beta) = self.factors;
+    /// `β k n nᵀ + α c (I − n nᵀ)` into `extra` (sorted by particle), the
+    /// free bodies' terms into `coupling`, and its right-hand side, `α k
+    /// reach n` less the friction's impulse at the start of the step (and
+    /// its body's share), through `rhs`.
+    pub(super) fn emit(
+        &mut self,
+        extra: &mut Vec<(u32, [f32; 6])>,
+        coupling: &mut Coupling,
+        mut rhs: impl FnMut(usize, Vec3),
+    ) {
+        let (alpha, beta, h) = self.factors;
         extra.clear();
+        self.links.clear();
         for held in &self.held {
             let c = &self.list[held.index];
             let p = c.particle as usize;
@@ -270,43 +352,86 @@ impl ContactBuffers {
                 Friction::Hold(damping) => (damping, alpha * damping * held.along),
                 Friction::Slide(impulse) => (0.0, impulse),
             };
-            rhs(p, alpha * held.k * held.reach * c.normal - kinetic);
+            let b = alpha * held.k * held.reach * c.normal - kinetic;
+            rhs(p, b);
             let (s, t) = (beta * held.k, alpha * damping);
             let m = c.normal;
             // s n nᵀ + t (I − n nᵀ), as xx, yy, zz, xy, xz, yz.
-            extra.push((
-                p as u32,
-                [
-                    t + (s - t) * m.x * m.x,
-                    t + (s - t) * m.y * m.y,
-                    t + (s - t) * m.z * m.z,
-                    (s - t) * m.x * m.y,
-                    (s - t) * m.x * m.z,
-                    (s - t) * m.y * m.z,
-                ],
-            ));
+            let block = [
+                t + (s - t) * m.x * m.x,
+                t + (s - t) * m.y * m.y,
+                t + (s - t) * m.z * m.z,
+                (s - t) * m.x * m.y,
+                (s - t) * m.x * m.z,
+                (s - t) * m.y * m.z,
+            ];
+            extra.push((p as u32, block));
+            if let Some((body, r)) = held.body {
+                self.links.push((body, p as u32, block, r, b));
+            }
         }
         extra.sort_unstable_by_key(|e| e.0);
+        self.links.sort_by_key(|l| l.0);
+        coupling.build(&self.bodies, self.links.iter().copied(), h);
+        coupling.rhs(rhs);
+    }
+
+    /// After a solve: lets go of the contacts with free bodies whose
+    /// spring ended up pulling (the particle was leaving the body; held, it
+    /// would pull the body along), for the solve to be taken again without
+    /// them. `dv`, `coupling`, `γ` and `h` as for [`finish`](Self::finish).
+    /// Returns whether any was let go.
+    pub(super) fn release_pulling(
+        &mut self,
+        dv: impl Fn(usize) -> Vec3,
+        coupling: &Coupling,
+        (gamma, h): (f32, f32),
+    ) -> bool {
+        let before = self.held.len();
+        let list = &self.list;
+        self.held.retain(|held| {
+            let Some((body, r)) = held.body else {
+                return true;
+            };
+            let c = &list[held.index];
+            let p = c.particle as usize;
+            let moved = coupling.surface_change(body, r);
+            let reach =
+                (held.displacement + gamma * (dv(p) - moved) - h * c.velocity).dot(c.normal);
+            -held.gap - reach > 0.0
+        });
+        self.any = !self.held.is_empty();
+        self.held.len() < before
     }
 
     /// After the solve: a kinetic friction that would have reversed a
     /// particle's sliding stops it instead (`x`, `v` at the end of the step,
     /// m and m/s); each held contact's force `λ` (module docs), and its
-    /// hold for the next step. `dv` the solve's `Δv` (m/s), `γ` as in
-    /// [`begin`](Self::begin), `h` the step (s).
+    /// hold for the next step. `dv` the solve's `Δv` (m/s), `coupling`
+    /// the free bodies' velocity changes, `γ` as in [`begin`](Self::begin),
+    /// `h` the step (s).
     pub(super) fn finish(
         &mut self,
         (x, v): (&mut [Vec3], &mut [Vec3]),
         dv: impl Fn(usize) -> Vec3,
+        coupling: &Coupling,
         (gamma, h): (f32, f32),
     ) {
         let alpha = self.factors.0;
+        self.changes.clear();
+        self.changes
+            .extend((0..self.bodies.len() as u32).map(|b| coupling.change(b)));
         for held in &self.held {
             let c = self.list[held.index];
             let p = c.particle as usize;
-            let reach = (held.displacement + gamma * dv(p) - h * c.velocity).dot(c.normal);
-            let force = held.k * (-c.gap - reach);
-            let relative = v[p] - c.velocity;
+            // The surface moved with the body's velocity change too.
+            let moved = held
+                .body
+                .map_or(Vec3::ZERO, |(body, r)| coupling.surface_change(body, r));
+            let reach =
+                (held.displacement + gamma * (dv(p) - moved) - h * c.velocity).dot(c.normal);
+            let force = held.k * (-held.gap - reach);
+            let relative = v[p] - c.velocity - moved;
             let mut along = relative - relative.dot(c.normal) * c.normal;
             // The spring's impulse `α λ n` and the friction's: the damping's
             // on the final sliding velocity, or Coulomb's.
@@ -324,7 +449,7 @@ impl ContactBuffers {
                 x[p] -= gamma * along;
                 along = Vec3::ZERO;
             }
-            self.impulses.push((held.index as u32, impulse));
+            self.impulses.push((held.index as u32, impulse, held.start));
             if force <= 0.0 {
                 // The spring held the particle back: it was leaving.
                 continue;

@@ -27,6 +27,7 @@ use std::ops::Range;
 
 use bevy::math::{Mat3, Vec3, Vec3A};
 
+use super::bodies::Coupling;
 #[cfg(test)]
 use super::coarse::Coarse;
 use crate::sim::model::jacobian::Block;
@@ -242,6 +243,9 @@ pub(super) struct Operator {
     /// Blocks added to single particles' diagonal blocks (contacts held by
     /// the solve), sorted by particle; set before [`Operator::build_with`].
     pub(super) extra: Vec<(u32, [f32; 6])>,
+    /// The free bodies behind held contacts, moved within the solve; set
+    /// with [`extra`](Self::extra).
+    pub(super) coupling: Coupling,
     /// `M(1 + αc)` of free particles, 0 for pinned ones (kg).
     mass: Aligned,
     /// 1 for a free particle, 0 for a pinned one.
@@ -517,6 +521,7 @@ impl Operator {
             let i = i as usize;
             out.set(i, out.get(i) + self.free[i] * sym_times(&c, d.get(i)));
         }
+        self.coupling.apply(d, out, &self.free);
     }
 
     /// Adds the [`extra`](Self::extra) diagonal blocks of the particles
@@ -581,9 +586,9 @@ impl Operator {
     }
 
     /// Whether the gathered product (`simd::gather`) alone is the
-    /// product: every pair is in a stream.
+    /// product: every pair is in a stream, and no free body is coupled.
     pub(super) fn streams_only(&self) -> bool {
-        self.others.is_empty()
+        self.others.is_empty() && self.coupling.is_empty()
     }
 
     /// `y = B⁻¹ r` for the block-Jacobi preconditioner `B`.

@@ -3,7 +3,7 @@
 //! outside it.
 
 use super::*;
-use crate::sim::integrate::implicit::contacts::STICK_SPEED;
+use crate::sim::integrate::implicit::contacts::{DEPENETRATION_SPEED, STICK_SPEED};
 
 /// Mass (kg) and step (s) of the tests.
 const M: f32 = 0.01;
@@ -47,8 +47,7 @@ fn on_floor(y: f32, push: Vec3, mu: f32, steps: usize) -> (Vec3, Vec3, Hold) {
                     velocity: Vec3::ZERO,
                     friction: mu,
                     source: 0,
-                    body_mass: f32::INFINITY,
-                    body_tangent_mass: f32::INFINITY,
+                    body: NO_BODY,
                 });
             }
             backward_euler(dynamics, &mut x, &mut v, H, &mut buffers);
@@ -88,8 +87,7 @@ fn a_falling_particle_lands_on_the_floor_in_one_step() {
         velocity: Vec3::ZERO,
         friction: 0.0,
         source: 0,
-        body_mass: f32::INFINITY,
-        body_tangent_mass: f32::INFINITY,
+        body: NO_BODY,
     });
     backward_euler(&dynamics, &mut x, &mut v, H, &mut buffers);
     // It ends on the surface (to within 1/(1 + κ) of the 5 cm it would
@@ -141,7 +139,7 @@ fn friction_holds_inside_its_cone_and_slides_by_coulomb_outside_it() {
 
 /// One particle falling at 3 m/s from 1 cm onto a surface, in one backward
 /// Euler step: its position, velocity and the contact's impulse (N·s),
-/// with a body of `body_mass` kg behind the surface.
+/// with a free body of `body_mass` kg behind the surface (infinite: none).
 fn land_on(body_mass: f32) -> (Vec3, Vec3, Vec3) {
     // No air damping: gravity and the contact are the only forces.
     one_particle(Vec3::ZERO, |dynamics| {
@@ -155,9 +153,10 @@ fn land_on(body_mass: f32) -> (Vec3, Vec3, Vec3) {
             velocity: Vec3::ZERO,
             friction: 0.0,
             source: 7,
-            body_mass,
-            body_tangent_mass: body_mass,
+            body: if body_mass.is_finite() { 0 } else { NO_BODY },
         });
+        let body = SolveBody::new(body_mass, Vec3::NEG_Y * 0.1);
+        buffers.contacts.bodies.push(body);
         backward_euler(dynamics, &mut x, &mut v, H, &mut buffers);
         let impulses: Vec<_> = buffers.contacts.impulses().collect();
         assert_eq!(impulses.len(), 1);
@@ -191,9 +190,10 @@ fn a_contacts_impulse_is_the_momentum_it_gave_and_a_light_body_gives_way() {
 }
 
 /// One backward-Euler step of a particle resting on a surface and moving
-/// along it at `speed` m/s, the surface a body that shows `tangent_mass` kg
-/// along it (friction 0.5): the contact's impulse along the surface (N·s).
-fn rub(speed: f32, tangent_mass: f32) -> f32 {
+/// along it at `speed` m/s, the surface a free body of `body_mass` kg that
+/// does not turn (infinite: none; friction 0.5): the contact's impulse
+/// along the surface (N·s).
+fn rub(speed: f32, body_mass: f32) -> f32 {
     one_particle(Vec3::ZERO, |dynamics| {
         let (mut x, mut v) = ([Vec3::ZERO], [Vec3::X * speed]);
         let mut buffers = ImplicitBuffers::default();
@@ -204,9 +204,10 @@ fn rub(speed: f32, tangent_mass: f32) -> f32 {
             velocity: Vec3::ZERO,
             friction: 0.5,
             source: 0,
-            body_mass: f32::INFINITY,
-            body_tangent_mass: tangent_mass,
+            body: if body_mass.is_finite() { 0 } else { NO_BODY },
         });
+        let body = SolveBody::new(body_mass, Vec3::NEG_Y * 0.1);
+        buffers.contacts.bodies.push(body);
         backward_euler(dynamics, &mut x, &mut v, H, &mut buffers);
         let impulses: Vec<_> = buffers.contacts.impulses().collect();
         assert_eq!(impulses.len(), 1);
@@ -216,8 +217,8 @@ fn rub(speed: f32, tangent_mass: f32) -> f32 {
 
 #[test]
 fn friction_never_drives_a_light_body_past_the_cloth() {
-    // A body that shows a hundredth of the particle's mass along its
-    // surface (a small ball spinning freely under the cloth) takes at most
+    // A body of a hundredth of the particle's mass (a small puck sliding
+    // freely under the cloth) takes at most
     // the impulse that brings it to the particle's speed: more would fling
     // it past, and the cloth with it the next step.
     let light = 0.01 * M;
@@ -234,4 +235,135 @@ fn friction_never_drives_a_light_body_past_the_cloth() {
             light * speed
         );
     }
+}
+
+/// One backward-Euler step, without gravity, of particles of mass [`M`]
+/// at `x` (m), at rest, each pushed by `push` (N) and touching a free
+/// body of `body_mass` kg at the origin along `normals`: the particles'
+/// end positions, the body's velocity change (m/s, rad/s) and the
+/// impulses the contacts gave.
+fn press(
+    x: &[Vec3],
+    push: &[Vec3],
+    normals: &[Vec3],
+    body_mass: f32,
+) -> (Vec<Vec3>, [Vec3; 2], Vec<Vec3>) {
+    let settings = SimSettings {
+        damping: 0.0,
+        gravity: Vec3::ZERO,
+        ..SimSettings::default()
+    };
+    let connections = Connections::default();
+    let w = vec![1.0 / M; x.len()];
+    let dynamics = Dynamics {
+        settings: &settings,
+        connections: &connections,
+        inverse_masses: &w,
+        external: push,
+        workers: crate::sim::workers::Pool::none(),
+    };
+    let (mut x, mut v) = (x.to_vec(), vec![Vec3::ZERO; x.len()]);
+    let mut buffers = ImplicitBuffers::default();
+    for (i, &normal) in normals.iter().enumerate() {
+        buffers.contacts.list.push(SolveContact {
+            particle: i as u32,
+            normal,
+            gap: 0.0,
+            velocity: Vec3::ZERO,
+            friction: 0.0,
+            source: 0,
+            body: 0,
+        });
+    }
+    let mut body = SolveBody::new(body_mass, Vec3::ZERO);
+    body.inverse_inertia =
+        bevy::math::Mat3::from_diagonal(Vec3::splat(1.0 / (0.4 * body_mass * 0.01)));
+    buffers.contacts.bodies.push(body);
+    backward_euler(&dynamics, &mut x, &mut v, H, &mut buffers);
+    let impulses = buffers.contacts.impulses().map(|(_, j, _)| j).collect();
+    (x, buffers.contacts.body_change(0), impulses)
+}
+
+#[test]
+fn a_light_body_pressed_from_both_sides_does_not_give_way() {
+    // A body a tenth of a particle's mass between two particles pushed
+    // into it with 1 N each: together it stays where it is, and neither
+    // particle goes in further than its contact spring's give, `F/k`
+    // (28 µm). Taken contact by contact (the body giving way to each push
+    // by itself, each spring in series with half its mass), both would
+    // sink 0.55 m into it.
+    let x = [Vec3::NEG_X * 0.1, Vec3::X * 0.1];
+    let push = [Vec3::X, Vec3::NEG_X];
+    let (end, [linear, angular], impulses) = press(&x, &push, &[Vec3::NEG_X, Vec3::X], 0.1 * M);
+    assert!(
+        linear.length() < 1e-4 && angular.length() < 1e-3,
+        "{linear} {angular}"
+    );
+    for (p, q) in end.iter().zip(&x) {
+        assert!((p.x - q.x).abs() < 1e-4, "moved from {q} to {p}");
+    }
+    // Each contact took its push over the step.
+    for j in impulses {
+        assert!((j.length() - H).abs() < 1e-3 * H, "{j}");
+    }
+}
+
+#[test]
+fn a_free_body_takes_the_momentum_its_contacts_give() {
+    // One particle pushed into a body of twice its mass off its centre: the
+    // body gains what the particle is given back, and turns.
+    let x = [Vec3::new(-0.1, 0.05, 0.0)];
+    let (_, [linear, angular], impulses) = press(&x, &[Vec3::X], &[Vec3::NEG_X], 2.0 * M);
+    let given: Vec3 = impulses.iter().sum();
+    let momentum = 2.0 * M * linear;
+    assert!(
+        (momentum + given).length() < 1e-3 * given.length(),
+        "the body gained {momentum}, the particle was given {given}"
+    );
+    assert!(
+        angular.z < 0.0,
+        "a push above the centre turns it: {angular}"
+    );
+}
+
+#[test]
+fn a_particle_deep_inside_a_free_body_comes_out_at_a_bounded_speed() {
+    // 5 cm inside a body of its own mass (its engine pushed the body into
+    // the cloth): taken out in one step the two would part at 3 m/s; they
+    // part at the depenetration speed.
+    let settings = SimSettings {
+        damping: 0.0,
+        gravity: Vec3::ZERO,
+        ..SimSettings::default()
+    };
+    let connections = Connections::default();
+    let dynamics = Dynamics {
+        settings: &settings,
+        connections: &connections,
+        inverse_masses: &[1.0 / M],
+        external: &[],
+        workers: crate::sim::workers::Pool::none(),
+    };
+    let (mut x, mut v) = ([Vec3::ZERO], [Vec3::ZERO]);
+    let mut buffers = ImplicitBuffers::default();
+    buffers.contacts.list.push(SolveContact {
+        particle: 0,
+        normal: Vec3::Y,
+        gap: -0.05,
+        velocity: Vec3::ZERO,
+        friction: 0.0,
+        source: 0,
+        body: 0,
+    });
+    buffers
+        .contacts
+        .bodies
+        .push(SolveBody::new(M, Vec3::NEG_Y * 0.1));
+    backward_euler(&dynamics, &mut x, &mut v, H, &mut buffers);
+    let [body, _] = buffers.contacts.body_change(0);
+    let parting = (v[0] - body).y;
+    assert!(
+        parting > 0.5 * DEPENETRATION_SPEED && parting <= 1.01 * DEPENETRATION_SPEED,
+        "they part at {parting} m/s"
+    );
 }
