@@ -26,9 +26,11 @@ const RADIUS: f32 = 0.55;
 /// The cloth: 1.5 m square, 31 × 31 particles (5 cm apart).
 const SIZE: f32 = 1.5;
 const N: u32 = 31;
-/// Speed of the yank, m/s, and how long the hand pulls, s.
-const YANK_SPEED: f32 = 4.0;
-const YANK_TIME: f32 = 0.16;
+/// Speed of the yank, m/s, and how long the hand pulls, s: out and a
+/// little down, as the trick is done, for the cloth's whole length and
+/// some more (2 m), then it lets go.
+const YANK_SPEED: f32 = 7.0;
+const YANK_TIME: f32 = 2.0 / YANK_SPEED;
 
 fn main() {
     App::new()
