@@ -370,7 +370,11 @@ fn push_bodies(
     impulses: Res<ClothContactImpulses>,
     colliders: Query<&ColliderOf>,
     mut bodies: Query<PushedBody, Without<RigidBodyDisabled>>,
+    mut lifted: Local<HashSet<Entity>>,
 ) {
+    // The bodies whose gravity this step has swapped already (a body of
+    // several colliders is touched through each).
+    lifted.clear();
     for (entity, impulse) in impulses.iter() {
         let body = colliders.get(entity).map_or(entity, |of| of.body);
         let Ok((kind, centre, mass, gravity_scale, mut forces)) = bodies.get_mut(body) else {
@@ -397,7 +401,7 @@ fn push_bodies(
         // start with the cloth's, and a force cancels it over the
         // substeps.
         let weight = Some(mass.value() * body_gravity)
-            .filter(|w| w.is_finite())
+            .filter(|w| w.is_finite() && lifted.insert(body))
             .unwrap_or_default();
         forces.apply_linear_impulse(impulse.linear + weight * dt);
         forces.apply_force(-weight);

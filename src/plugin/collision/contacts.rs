@@ -118,8 +118,9 @@ pub(crate) struct Feedback {
     /// so far: a body the first substep stopped is not taken as still
     /// falling in the next.
     carried: Vec<Carried>,
-    /// The scene index of each of the last solve's bodies.
-    sources: Vec<usize>,
+    /// The colliders of the last solve's bodies: scene index, and the
+    /// body's index in the solve's bodies.
+    sources: Vec<(usize, u32)>,
     /// The substep of the last solve.
     at: Substep,
 }
@@ -329,7 +330,9 @@ impl ContactHook for SceneContacts<'_> {
         }
         predict::keep_nearest(out);
         // A body that gives way moves within the solve, under all its
-        // contacts at once, from where the substeps so far took it.
+        // contacts at once, from where the substeps so far took it. The
+        // pieces of one collider, and the colliders of one body (the same
+        // mass, centre and inertia), are one body.
         self.feedback.sources.clear();
         self.feedback.at = sub;
         for &c in self.near {
@@ -337,20 +340,31 @@ impl ContactHook for SceneContacts<'_> {
             let Some(mut body) = collider.body() else {
                 continue;
             };
-            let moving = self.feedback.moving(collider, c, sub);
-            body.centre +=
-                Vec3::from(moving.start.translation) - Vec3::from(collider.start.translation);
             let source = c as u32;
-            let index = bodies.len() as u32;
-            let mut any = false;
+            if !out.iter().any(|s| s.source == source) {
+                continue;
+            }
+            let same = |&(other, _): &(usize, u32)| {
+                let o = &self.scene.colliders[other];
+                o.entity == collider.entity
+                    || (o.mass == collider.mass
+                        && o.centre == collider.centre
+                        && o.inverse_inertia == collider.inverse_inertia)
+            };
+            let index = match self.feedback.sources.iter().find(|s| same(s)) {
+                Some(&(_, index)) => index,
+                None => {
+                    let moving = self.feedback.moving(collider, c, sub);
+                    body.centre += Vec3::from(moving.start.translation)
+                        - Vec3::from(collider.start.translation);
+                    bodies.push(body);
+                    (bodies.len() - 1) as u32
+                }
+            };
             for contact in out.iter_mut().filter(|s| s.source == source) {
                 contact.body = index;
-                any = true;
             }
-            if any {
-                bodies.push(body);
-                self.feedback.sources.push(c);
-            }
+            self.feedback.sources.push((c, index));
         }
     }
 
@@ -367,8 +381,8 @@ impl ContactHook for SceneContacts<'_> {
             at,
             ..
         } = &mut *self.feedback;
-        for (b, &collider) in sources.iter().enumerate() {
-            let [linear, angular] = contacts.body_change(b);
+        for &(collider, b) in sources.iter() {
+            let [linear, angular] = contacts.body_change(b as usize);
             if linear != Vec3::ZERO || angular != Vec3::ZERO {
                 carried.push(Carried {
                     collider,
