@@ -30,12 +30,13 @@ const WIDTH: f32 = 0.8;
 const SPAN: f32 = 1.5;
 
 /// The balls `Space` drops, in turn: mass (kg), radius (m), colour, and
-/// where along the hammock it is dropped (m).
+/// where along the hammock it is dropped (m): the later ones to the side of
+/// the first, to land on the canvas and roll down to them.
 const BALLS: [(f32, f32, Color, f32); 4] = [
     (5.0, 0.14, Color::srgb(0.25, 0.25, 0.28), 0.3),
     (2.0, 0.12, Color::srgb(0.3, 0.75, 0.35), -0.35),
-    (0.5, 0.1, Color::srgb(0.2, 0.6, 0.9), 0.1),
-    (0.1, 0.16, Color::srgb(0.95, 0.8, 0.2), -0.1),
+    (0.5, 0.1, Color::srgb(0.2, 0.6, 0.9), 0.5),
+    (0.1, 0.16, Color::srgb(0.95, 0.8, 0.2), -0.5),
 ];
 
 fn main() {
