@@ -358,10 +358,11 @@ fn push_bodies(
     mut pending: Query<(Option<&mut ExternalImpulse>, Option<&mut ExternalForce>)>,
     mut fresh: Local<HashMap<Entity, (ExternalImpulse, ExternalForce)>>,
     mut lifted: ResMut<HeldUp>,
+    mut now: Local<HashMap<Entity, Vec3>>,
 ) {
     let dt = time.timestep().as_secs_f32();
     // The weight each body touched now is held up by (N).
-    let mut now: HashMap<Entity, Vec3> = HashMap::default();
+    now.clear();
     for (entity, impulse) in impulses.iter() {
         if !(impulse.linear.is_finite() && impulse.angular.is_finite()) {
             continue;
@@ -394,7 +395,6 @@ fn push_bodies(
     // The force cancelling gravity: last step's taken off (unless the game
     // replaced it since: `lifted` holds the weight and the force left),
     // this step's put on.
-    let mut left = HashMap::default();
     for (body, (weight, force_left)) in lifted.0.drain() {
         if let Ok((_, Some(mut force))) = pending.get_mut(body)
             && force.force == force_left
@@ -414,9 +414,8 @@ fn push_bodies(
                 *force
             }
         };
-        left.insert(body, (weight, force));
+        lifted.0.insert(body, (weight, force));
     }
-    lifted.0 = left;
     for (body, (impulse, force)) in fresh.drain() {
         let mut body = commands.entity(body);
         if impulse != ExternalImpulse::default() {
