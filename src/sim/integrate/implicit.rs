@@ -596,7 +596,7 @@ fn backward_euler_step(
     };
     fill(buffers);
     solve(dynamics, buffers);
-    if held && release_pulling(buffers, (h, h)) {
+    if held && revise(buffers, |i| v[i], (h, h)) {
         build_held(dynamics, (h, h * h), buffers);
         fill(buffers);
         solve(dynamics, buffers);
@@ -614,12 +614,12 @@ fn backward_euler_step(
     }
 }
 
-/// After a solve that held contacts with free bodies: lets go of those
-/// whose spring ended up pulling ([`ContactBuffers::release_pulling`]);
-/// whether any was, and the step is to be solved again without them (`γ`,
-/// `h` in s). One pass: a contact the second solve would let go of too
-/// pulls for that step, as a contact with a fixed surface does.
-fn release_pulling(buffers: &mut ImplicitBuffers, steps: (f32, f32)) -> bool {
+/// After a solve that held contacts with free bodies: corrects those it got
+/// wrong ([`ContactBuffers::revise`]); whether any was, and the step is to
+/// be solved again (`v` the velocities the solve started from, m/s; `γ`,
+/// `h` in s). One pass: a contact the second solve would correct too keeps
+/// its error for that step, as a contact with a fixed surface does.
+fn revise(buffers: &mut ImplicitBuffers, v: impl Fn(usize) -> Vec3, steps: (f32, f32)) -> bool {
     let ImplicitBuffers {
         contacts, dv, op, ..
     } = buffers;
@@ -627,7 +627,7 @@ fn release_pulling(buffers: &mut ImplicitBuffers, steps: (f32, f32)) -> bool {
         return false;
     }
     op.coupling.solved(|i| dv.get(i));
-    contacts.release_pulling(|i| dv.get(i), &op.coupling, steps)
+    contacts.revise(|i| v(i) + dv.get(i), |i| dv.get(i), &op.coupling, steps)
 }
 
 /// Adds the sliding contacts' terms to the right-hand side.
@@ -712,7 +712,7 @@ pub fn bdf2(
     };
     fill(buffers);
     solve(dynamics, buffers);
-    if held && release_pulling(buffers, (alpha, h)) {
+    if held && revise(buffers, |i| v[i], (alpha, h)) {
         build_held(dynamics, (alpha, beta), buffers);
         fill(buffers);
         solve(dynamics, buffers);

@@ -35,8 +35,11 @@
 //! pushed along, and a ball in a pocket is held by every side of it
 //! together. Its sliding friction is a damping `μ λ / speed` as well, held
 //! in step with the body, so friction never turns a light body past the
-//! cloth. A contact whose spring ends up pulling the body (the particle
-//! was leaving it) is let go and the step solved again without it. The
+//! cloth. After the solve, two kinds of contact with a body are corrected
+//! and the step solved again once ([`ContactBuffers::revise`]): a contact
+//! whose spring ends up pulling the body (the particle was leaving it) is
+//! let go, and a body that friction carried along faster than Coulomb's
+//! law allows (a cloth pulled from under a plate) slides. The
 //! caller applies the impulses ([`ContactBuffers::impulses`]) to the body
 //! after the step.
 //!
@@ -108,6 +111,14 @@ pub const DEPENETRATION_SPEED: f32 = 1.0;
 /// creep.
 pub const STICK_SPEED: f32 = 1e-4;
 
+/// How far past its Coulomb bound the holding friction on a free body,
+/// net across its weight, may go before its contacts slide instead
+/// (dimensionless, [`ContactBuffers::revise`]). The holds are stiffer than
+/// the normal springs, and a ball at rest in a pocket shows up to about
+/// 1.3 times its bound there; a plate on a cloth pulled from under it
+/// shows ten times and more.
+pub const GRIP_LIMIT: f32 = 3.0;
+
 /// How friction acts on a held contact in this step's solve.
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum Friction {
@@ -169,6 +180,8 @@ pub struct ContactBuffers {
     /// Scratch: the coupled contacts by body, and each body's count.
     links: Vec<(u32, u32, [f32; 6], Vec3, Vec3)>,
     counts: Vec<f32>,
+    grips: Vec<(f32, Vec3)>,
+    net: Vec<Vec3>,
     /// The impulse (N·s) each held contact gave its particle in the last
     /// solve, with the contact's index in `list`.
     impulses: Vec<(u32, Vec3, Vec3)>,
@@ -376,32 +389,90 @@ impl ContactBuffers {
         coupling.rhs(rhs);
     }
 
-    /// After a solve: lets go of the contacts with free bodies whose
-    /// spring ended up pulling (the particle was leaving the body; held, it
-    /// would pull the body along), for the solve to be taken again without
-    /// them. `dv`, `coupling`, `γ` and `h` as for [`finish`](Self::finish).
-    /// Returns whether any was let go.
-    pub(super) fn release_pulling(
+    /// After a solve, the contacts with free bodies it got wrong, for the
+    /// step to be solved again with them corrected:
+    ///
+    /// - a contact whose spring ended up pulling (the particle was leaving
+    ///   the body; held, it would pull the body along) is let go;
+    /// - a body whose contacts' holding friction, net across its weight
+    ///   (its engine's acceleration), took more than [`GRIP_LIMIT`] times
+    ///   its Coulomb bound `Σ μ λ` (a cloth pulled from under it faster than
+    ///   friction can carry it) slides: each of its
+    ///   contacts past its own bound `μ λ` takes that bound, in the
+    ///   direction its friction acted. Held by a damping sized for creeping,
+    ///   the body would be carried along with the cloth at any speed.
+    ///
+    /// `v` each particle's velocity at the end of the solve (m/s), `dv` the
+    /// solve's `Δv` (m/s), `coupling` the free bodies' velocity changes, `γ`
+    /// and `h` (s) as for [`finish`](Self::finish). Returns whether any
+    /// contact changed.
+    pub(super) fn revise(
         &mut self,
+        v: impl Fn(usize) -> Vec3,
         dv: impl Fn(usize) -> Vec3,
         coupling: &Coupling,
         (gamma, h): (f32, f32),
     ) -> bool {
-        let before = self.held.len();
-        let list = &self.list;
-        self.held.retain(|held| {
+        let alpha = self.factors.0;
+        // Each coupled contact's normal force (N) and holding friction's
+        // impulse (N·s); each body's net friction impulse and its bound.
+        self.grips.clear();
+        self.counts.clear();
+        self.counts.resize(self.bodies.len(), 0.0);
+        self.net.clear();
+        self.net.resize(self.bodies.len(), Vec3::ZERO);
+        for held in &self.held {
             let Some((body, r)) = held.body else {
-                return true;
+                self.grips.push((0.0, Vec3::ZERO));
+                continue;
             };
-            let c = &list[held.index];
+            let c = &self.list[held.index];
             let p = c.particle as usize;
             let moved = coupling.surface_change(body, r);
             let reach =
                 (held.displacement + gamma * (dv(p) - moved) - h * c.velocity).dot(c.normal);
-            -held.gap - reach > 0.0
+            let force = held.k * (-held.gap - reach);
+            let grip = match held.friction {
+                Friction::Hold(damping) => {
+                    let relative = v(p) - c.velocity - moved;
+                    alpha * damping * (relative - relative.dot(c.normal) * c.normal)
+                }
+                Friction::Slide(_) => Vec3::ZERO,
+            };
+            self.net[body as usize] += grip;
+            self.counts[body as usize] += alpha * c.friction * force.max(0.0);
+            self.grips.push((force, grip));
+        }
+        // Friction along the body's weight is in part the support its
+        // contacts' stiff holds carry of it at rest in a pocket; what is
+        // across the weight is friction carrying the body along.
+        for (net, body) in self.net.iter_mut().zip(&self.bodies) {
+            let down = body.acceleration.normalize_or_zero();
+            *net -= net.dot(down) * down;
+        }
+        let list = &self.list;
+        let (net, counts) = (&self.net, &self.counts);
+        let mut changed = false;
+        let mut grips = self.grips.iter();
+        self.held.retain_mut(|held| {
+            let &(force, grip) = grips.next().expect("one grip a held contact");
+            let bound = alpha * list[held.index].friction * force;
+            let Some((body, _)) = held.body else {
+                return true;
+            };
+            if force < 0.0 {
+                changed = true;
+                return false;
+            }
+            let b = body as usize;
+            if net[b].length() > GRIP_LIMIT * counts[b] && grip.length() > bound {
+                held.friction = Friction::Slide(grip * (bound / grip.length()));
+                changed = true;
+            }
+            true
         });
         self.any = !self.held.is_empty();
-        self.held.len() < before
+        changed
     }
 
     /// After the solve: a kinetic friction that would have reversed a

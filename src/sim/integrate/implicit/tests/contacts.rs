@@ -359,3 +359,43 @@ fn a_particle_deep_inside_a_free_body_comes_out_at_a_bounded_speed() {
         "they part at {parting} m/s"
     );
 }
+
+#[test]
+fn a_cloth_pulled_from_under_a_body_carries_it_no_faster_than_friction() {
+    // A 0.4 kg body resting on four particles (friction 0.3), which are
+    // pulled sideways with 3 N each, 5 m/s in a step for a free particle:
+    // friction gives the body `μ g h` = 4.9 cm/s along, no more. Held by
+    // the friction sized for creeping, it would be carried at 0.45 m/s.
+    const BODY: f32 = 0.4;
+    const MU: f32 = 0.3;
+    let gravity = Vec3::new(0.0, -9.81, 0.0);
+    let x: Vec<Vec3> = (0..4)
+        .map(|i| Vec3::new(0.1 * (i % 2) as f32, -0.05, 0.1 * (i / 2) as f32))
+        .collect();
+    // Each particle held up against its share of the body's weight.
+    let push = vec![Vec3::X * 3.0 - gravity * BODY / 4.0; 4];
+    let (v, [linear, _]) = weightless(&push, |dynamics| {
+        let (mut x, mut v) = (x.clone(), vec![Vec3::ZERO; 4]);
+        let mut buffers = ImplicitBuffers::default();
+        for i in 0..4 {
+            buffers
+                .contacts
+                .list
+                .push(touching(i, Vec3::NEG_Y, 0.0, MU, 0));
+        }
+        let mut body = SolveBody::new(BODY, Vec3::new(0.05, 0.0, 0.05));
+        body.acceleration = gravity;
+        buffers.contacts.bodies.push(body);
+        backward_euler(dynamics, &mut x, &mut v, H, &mut buffers);
+        (v, buffers.contacts.body_change(0))
+    });
+    let coulomb = MU * 9.81 * H;
+    assert!(
+        (linear.x - coulomb).abs() < 0.05 * coulomb,
+        "the body gained {} m/s along, friction allows {coulomb}",
+        linear.x
+    );
+    // The particles slide on under it.
+    assert!(v.iter().all(|v| v.x > 3.0), "{v:?}");
+    assert!(linear.y.abs() < 0.02, "the body rests: {linear}");
+}
