@@ -623,10 +623,9 @@ fn revise(buffers: &mut ImplicitBuffers, v: impl Fn(usize) -> Vec3, steps: (f32,
     let ImplicitBuffers {
         contacts, dv, op, ..
     } = buffers;
-    if op.coupling.is_empty() {
-        return false;
+    if !op.coupling.is_empty() {
+        op.coupling.solved(|i| dv.get(i));
     }
-    op.coupling.solved(|i| dv.get(i));
     contacts.revise(|i| v(i) + dv.get(i), |i| dv.get(i), &op.coupling, steps)
 }
 
