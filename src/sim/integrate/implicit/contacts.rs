@@ -187,6 +187,9 @@ pub struct ContactBuffers {
     /// Scratch: the coupled contacts by body, and each body's count.
     links: Vec<(u32, u32, [f32; 6], Vec3, Vec3)>,
     counts: Vec<f32>,
+    /// Scratch of [`revise`](Self::revise): each held contact's normal
+    /// force (N) and holding friction's impulse (N·s), and each body's net
+    /// friction impulse (N·s).
     grips: Vec<(f32, Vec3)>,
     net: Vec<Vec3>,
     /// The impulse (N·s) each held contact gave its particle in the last
@@ -402,14 +405,14 @@ impl ContactBuffers {
     /// - a held contact with a fixed surface whose friction took more than
     ///   [`GRIP_LIMIT`] times its bound `μ λ` slides, with that bound, in
     ///   the direction its friction acted;
-    /// - a contact with a free body whose spring ended up pulling (the particle was leaving
-    ///   the body; held, it would pull the body along) is let go;
+    /// - a contact with a free body whose spring ended up pulling (the
+    ///   particle was leaving the body; held, it would pull the body along)
+    ///   is let go;
     /// - a body whose contacts' holding friction, net across its weight
     ///   (its engine's acceleration), took more than [`GRIP_LIMIT`] times
     ///   its Coulomb bound `Σ μ λ` (a cloth pulled from under it faster than
-    ///   friction can carry it) slides: each of its
-    ///   contacts past its own bound `μ λ` takes that bound, in the
-    ///   direction its friction acted. Held by a damping sized for creeping,
+    ///   friction can carry it) slides: each of its contacts past its own
+    ///   bound `μ λ` takes that bound, in the direction its friction acted. Held by a damping sized for creeping,
     ///   the body would be carried along with the cloth at any speed.
     ///
     /// `v` each particle's velocity at the end of the solve (m/s), `dv` the
@@ -424,7 +427,7 @@ impl ContactBuffers {
         (gamma, h): (f32, f32),
     ) -> bool {
         let alpha = self.factors.0;
-        // Each coupled contact's normal force (N) and holding friction's
+        // Each held contact's normal force (N) and holding friction's
         // impulse (N·s); each body's net friction impulse and its bound.
         self.grips.clear();
         self.counts.clear();
