@@ -36,12 +36,11 @@
 //! together. Its sliding friction is a damping `μ λ / speed` as well, held
 //! in step with the body, so friction never turns a light body past the
 //! cloth. After the solve, two kinds of contact with a body are corrected
-//! and the step solved again once ([`ContactBuffers::revise`]): a contact
-//! whose spring ends up pulling the body (the particle was leaving it) is
-//! let go, and a body that friction carried along faster than Coulomb's
-//! law allows (a cloth pulled from under a plate) slides. The
-//! caller applies the impulses ([`ContactBuffers::impulses`]) to the body
-//! after the step.
+//! and the step solved again once: a contact whose spring ends up pulling
+//! the body (the particle was leaving it) is let go, and a body that
+//! friction carried along faster than Coulomb's law allows (a cloth pulled
+//! from under a plate) slides ([`GRIP_LIMIT`]). The caller applies the
+//! impulses ([`ContactBuffers::impulses`]) to the body after the step.
 //!
 //! After the solve the spring gives the contact force `λ` of the step: a
 //! pulling one means the particle was leaving, and the spring held it back
@@ -113,10 +112,11 @@ pub const STICK_SPEED: f32 = 1e-4;
 
 /// How far past its Coulomb bound the holding friction on a free body,
 /// net across its weight, may go before its contacts slide instead
-/// (dimensionless, [`ContactBuffers::revise`]). The holds are stiffer than
-/// the normal springs, and a ball at rest in a pocket shows up to about
-/// 1.3 times its bound there; a plate on a cloth pulled from under it
-/// shows ten times and more.
+/// (dimensionless; module docs, "A body that gives way"). The holds are
+/// stiffer than the normal springs and carry part of a ball's weight in a
+/// pocket: at rest its net friction is 1.3 to 1.9 times its bound, and
+/// across its weight up to about 1.3 times. A plate on a cloth pulled from
+/// under it shows ten times and more.
 pub const GRIP_LIMIT: f32 = 3.0;
 
 /// How friction acts on a held contact in this step's solve.
