@@ -156,6 +156,17 @@ struct Held {
     friction: Friction,
 }
 
+impl Held {
+    /// The normal force (N) of the spring of contact `c` at the end of the
+    /// step, given the particle's velocity change relative to the surface
+    /// (`Δv` less the body's surface change, m/s); `γ`, `h` (s) as for
+    /// [`ContactBuffers::finish`]. Negative when it pulls.
+    fn force(&self, c: &SolveContact, change: Vec3, (gamma, h): (f32, f32)) -> f32 {
+        let reach = (self.displacement + gamma * change - h * c.velocity).dot(c.normal);
+        self.k * (-self.gap - reach)
+    }
+}
+
 /// The contacts of a cloth's implicit solve, kept between steps.
 #[derive(Clone, Debug, Default)]
 pub struct ContactBuffers {
@@ -177,7 +188,8 @@ pub struct ContactBuffers {
     /// Each body's velocity change in the last solve: linear (m/s) and
     /// angular (rad/s), by index into `bodies` (zero for one not moved).
     changes: Vec<[Vec3; 2]>,
-    /// Scratch: the coupled contacts by body, and each body's count.
+    /// Scratch: the coupled contacts by body, and each body's count of
+    /// contacts (in `begin`) or Coulomb bound `Σ α μ λ` (N·s, in `revise`).
     links: Vec<(u32, u32, [f32; 6], Vec3, Vec3)>,
     counts: Vec<f32>,
     /// Scratch of [`revise`](Self::revise): each held contact's normal
@@ -432,9 +444,7 @@ impl ContactBuffers {
             let c = &self.list[held.index];
             let p = c.particle as usize;
             let moved = coupling.surface_change(body, r);
-            let reach =
-                (held.displacement + gamma * (dv(p) - moved) - h * c.velocity).dot(c.normal);
-            let force = held.k * (-held.gap - reach);
+            let force = held.force(c, dv(p) - moved, (gamma, h));
             let grip = match held.friction {
                 Friction::Hold(damping) => {
                     let relative = v(p) - c.velocity - moved;
@@ -502,9 +512,7 @@ impl ContactBuffers {
             let moved = held
                 .body
                 .map_or(Vec3::ZERO, |(body, r)| coupling.surface_change(body, r));
-            let reach =
-                (held.displacement + gamma * (dv(p) - moved) - h * c.velocity).dot(c.normal);
-            let force = held.k * (-held.gap - reach);
+            let force = held.force(&c, dv(p) - moved, (gamma, h));
             let relative = v[p] - c.velocity - moved;
             let mut along = relative - relative.dot(c.normal) * c.normal;
             // The spring's impulse `α λ n` and the friction's: the damping's
