@@ -226,14 +226,33 @@ pub fn apply_creases(
     record: &mut CreaseRecord,
     creases: &[Crease],
 ) -> Vec<ClothError> {
+    apply_closing(cloth, connections, record, creases.iter().map(|c| (c, 1.0)))
+}
+
+/// [`apply_creases`] with each crease folded by a fraction of its angle
+/// (dimensionless, 0 = flat, 1 = the whole fold `β`), so that a fold can
+/// close over several steps: each crossing connection's rest length then
+/// follows `L'² = L² − 2 d_a d_b (1 − cos(fraction · β))`. A fraction
+/// outside `[0, 1]` is clamped to it; NaN folds the whole way.
+pub fn apply_closing<'a>(
+    cloth: &Grid,
+    connections: &mut Connections,
+    record: &mut CreaseRecord,
+    creases: impl IntoIterator<Item = (&'a Crease, f32)>,
+) -> Vec<ClothError> {
     restore(connections, record);
     let mut errors = Vec::new();
-    for crease in creases {
+    for (crease, fraction) in creases {
         if let Err(e) = crease.validate(cloth) {
             errors.push(e);
             continue;
         }
-        let beta = crease.amount.angle();
+        let fraction = if fraction.is_nan() {
+            1.0
+        } else {
+            fraction.clamp(0.0, 1.0)
+        };
+        let beta = crease.amount.angle() * fraction;
         let dir = (crease.to - crease.from).normalize();
         let sign = match crease.side {
             FoldSide::Free => 0.0,
