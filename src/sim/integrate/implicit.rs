@@ -614,19 +614,18 @@ fn backward_euler_step(
     }
 }
 
-/// After a solve that held contacts with free bodies: corrects those it got
-/// wrong ([`ContactBuffers::revise`]); whether any was, and the step is to
-/// be solved again (`v` the velocities the solve started from, m/s; `γ`,
+/// After a solve that held contacts: corrects those it got wrong
+/// ([`ContactBuffers::revise`]); whether any was, and the step is to be
+/// solved again (`v` the velocities the solve started from, m/s; `γ`,
 /// `h` in s). One pass: a contact the second solve would correct too keeps
 /// its error for that step, as a contact with a fixed surface does.
 fn revise(buffers: &mut ImplicitBuffers, v: impl Fn(usize) -> Vec3, steps: (f32, f32)) -> bool {
     let ImplicitBuffers {
         contacts, dv, op, ..
     } = buffers;
-    if op.coupling.is_empty() {
-        return false;
+    if !op.coupling.is_empty() {
+        op.coupling.solved(|i| dv.get(i));
     }
-    op.coupling.solved(|i| dv.get(i));
     contacts.revise(|i| v(i) + dv.get(i), |i| dv.get(i), &op.coupling, steps)
 }
 

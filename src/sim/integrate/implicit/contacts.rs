@@ -25,7 +25,13 @@
 //!   so stable at any step: a load within the cone `μ λ` leaves it creeping
 //!   below `v_ε`; a larger one moves it faster, and it slides from the next
 //!   step on (the lagged, smoothed friction of implicit contact solvers,
-//!   after Bridson et al. 2002).
+//!   after Bridson et al. 2002). A load far past the cone (the held
+//!   friction more than [`GRIP_LIMIT`] times `μ λ`: a cloth yanked along a
+//!   table) slides within the step: the step is solved again with that
+//!   contact's friction at `μ λ`, or the cloth would stay behind its pulled
+//!   edge for a step, stretched by the whole pull. A particle that ends a
+//!   step sliding against the way its friction was set (pulled back the
+//!   way it came) feels Coulomb's friction against its new slip.
 //!
 //! **A body that gives way.** A contact with a free body ([`SolveContact::body`],
 //! one of [`ContactBuffers::bodies`]) holds its particle relative to the
@@ -110,13 +116,13 @@ pub const DEPENETRATION_SPEED: f32 = 1.0;
 /// creep.
 pub const STICK_SPEED: f32 = 1e-4;
 
-/// How far past its Coulomb bound the holding friction on a free body,
-/// net across its weight, may go before its contacts slide instead
-/// (dimensionless; module docs, "A body that gives way"). The holds are
-/// stiffer than the normal springs and carry part of a ball's weight in a
-/// pocket: at rest its net friction is 1.3 to 1.9 times its bound, and
-/// across its weight up to about 1.3 times. A plate on a cloth pulled from
-/// under it shows ten times and more.
+/// How far past its Coulomb bound a contact's holding friction (or that on
+/// a free body, net across its weight) may go before it slides instead
+/// (dimensionless, [`ContactBuffers::revise`]). A held particle creeping
+/// at up to `GRIP_LIMIT` times [`STICK_SPEED`] is left to the next step. On
+/// a body the holds, stiffer than the normal springs, carry part of a
+/// ball's weight in a pocket, up to about 1.3 times its bound at rest; a
+/// plate on a cloth pulled from under it shows ten times and more.
 pub const GRIP_LIMIT: f32 = 3.0;
 
 /// How friction acts on a held contact in this step's solve.
@@ -404,18 +410,21 @@ impl ContactBuffers {
         coupling.rhs(rhs);
     }
 
-    /// After a solve, the contacts with free bodies it got wrong, for the
-    /// step to be solved again with them corrected:
+    /// After a solve, the contacts it got wrong, for the step to be solved
+    /// again with them corrected:
     ///
-    /// - a contact whose spring ended up pulling (the particle was leaving
-    ///   the body; held, it would pull the body along) is let go;
+    /// - a held contact with a fixed surface whose friction took more than
+    ///   [`GRIP_LIMIT`] times its bound `μ λ` slides, with that bound, in
+    ///   the direction its friction acted;
+    /// - a contact with a free body whose spring ended up pulling (the
+    ///   particle was leaving the body; held, it would pull the body along)
+    ///   is let go;
     /// - a body whose contacts' holding friction, net across its weight
     ///   (its engine's acceleration), took more than [`GRIP_LIMIT`] times
     ///   its Coulomb bound `Σ μ λ` (a cloth pulled from under it faster than
     ///   friction can carry it) slides: each of its contacts past its own
-    ///   bound `μ λ` takes that bound, in the direction its friction acted.
-    ///   Held by a damping sized for creeping, the body would be carried
-    ///   along with the cloth at any speed.
+    ///   bound `μ λ` takes that bound, in the direction its friction acted. Held by a damping sized for creeping,
+    ///   the body would be carried along with the cloth at any speed.
     ///
     /// `v` each particle's velocity at the end of the solve (m/s), `dv` the
     /// solve's `Δv` (m/s), `coupling` the free bodies' velocity changes, `γ`
@@ -429,7 +438,7 @@ impl ContactBuffers {
         (gamma, h): (f32, f32),
     ) -> bool {
         let alpha = self.factors.0;
-        // Each coupled contact's normal force (N) and holding friction's
+        // Each held contact's normal force (N) and holding friction's
         // impulse (N·s); each body's net friction impulse and its bound.
         self.grips.clear();
         self.counts.clear();
@@ -437,13 +446,11 @@ impl ContactBuffers {
         self.net.clear();
         self.net.resize(self.bodies.len(), Vec3::ZERO);
         for held in &self.held {
-            let Some((body, r)) = held.body else {
-                self.grips.push((0.0, Vec3::ZERO));
-                continue;
-            };
             let c = &self.list[held.index];
             let p = c.particle as usize;
-            let moved = coupling.surface_change(body, r);
+            let moved = held
+                .body
+                .map_or(Vec3::ZERO, |(body, r)| coupling.surface_change(body, r));
             let force = held.force(c, dv(p) - moved, (gamma, h));
             let grip = match held.friction {
                 Friction::Hold(damping) => {
@@ -452,8 +459,10 @@ impl ContactBuffers {
                 }
                 Friction::Slide(_) => Vec3::ZERO,
             };
-            self.net[body as usize] += grip;
-            self.counts[body as usize] += alpha * c.friction * force.max(0.0);
+            if let Some((body, _)) = held.body {
+                self.net[body as usize] += grip;
+                self.counts[body as usize] += alpha * c.friction * force.max(0.0);
+            }
             self.grips.push((force, grip));
         }
         // Friction along the body's weight is in part the support its
@@ -471,6 +480,10 @@ impl ContactBuffers {
             let &(force, grip) = grips.next().expect("one grip a held contact");
             let bound = alpha * list[held.index].friction * force;
             let Some((body, _)) = held.body else {
+                if force > 0.0 && grip.length() > GRIP_LIMIT * bound {
+                    held.friction = Friction::Slide(grip * (bound / grip.length()));
+                    changed = true;
+                }
                 return true;
             };
             if force < 0.0 {
@@ -525,11 +538,24 @@ impl ContactBuffers {
             if let Friction::Slide(kinetic) = held.friction
                 && along.dot(kinetic) < 0.0
             {
-                // Friction took out more than the motion: it stops.
-                impulse -= held.mass * along;
-                v[p] -= along;
-                x[p] -= gamma * along;
-                along = Vec3::ZERO;
+                // The particle ends sliding against the way it was going,
+                // and friction, fixed against the old way, pushed it on.
+                // Coulomb's law with the slip the rest of the step gave it:
+                // it stops if friction can take that out, and slides on
+                // with friction against it otherwise (the cloth pulled it
+                // the other way).
+                let free = along + kinetic / held.mass;
+                let stop = kinetic.length() / held.mass;
+                let end = if free.length() <= stop {
+                    Vec3::ZERO
+                } else {
+                    free - stop * free.normalize()
+                };
+                let change = end - along;
+                impulse += held.mass * change;
+                v[p] += change;
+                x[p] += gamma * change;
+                along = end;
             }
             self.impulses.push((held.index as u32, impulse, held.start));
             if force <= 0.0 {

@@ -399,3 +399,34 @@ fn a_cloth_pulled_from_under_a_body_carries_it_no_faster_than_friction() {
     assert!(v.iter().all(|v| v.x > 3.0), "{v:?}");
     assert!(linear.y.abs() < 0.02, "the body rests: {linear}");
 }
+
+#[test]
+fn a_particle_sliding_one_way_and_pulled_the_other_slides_the_other_way() {
+    // Sliding at 0.1 m/s along -X on the floor (μ 0.5), then pulled along
+    // +X with 1 N (100 g): in the step it turns and slides on along +X at
+    // `(F/m − μ g) h` and more, with friction against that. It does not
+    // stop where it was.
+    let mu = 0.5;
+    let v = one_particle(Vec3::ZERO, |dynamics| {
+        let (mut x, mut v) = ([Vec3::ZERO], [Vec3::NEG_X * 0.1]);
+        let mut buffers = ImplicitBuffers::default();
+        let contact = touching(0, Vec3::Y, 0.0, mu, NO_BODY);
+        // One step sliding, so that the next one starts sliding.
+        buffers.contacts.list.push(contact);
+        backward_euler(dynamics, &mut x, &mut v, H, &mut buffers);
+        assert_eq!(buffers.contacts.hold(0), Hold::Slide);
+        let external = [Vec3::X];
+        let pulled = Dynamics {
+            external: &external,
+            ..*dynamics
+        };
+        backward_euler(&pulled, &mut x, &mut v, H, &mut buffers);
+        v[0]
+    });
+    let least = (1.0 / M - mu * 9.81) * H - 0.1;
+    assert!(
+        v.x > 0.9 * least,
+        "it slides at {} m/s, at least {least}",
+        v.x
+    );
+}
