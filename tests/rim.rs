@@ -142,8 +142,10 @@ fn a_cloth_dragged_over_a_sharp_edge_slides_over_it() {
         );
         assert!(moved > 0.8, "{name}: moved {moved}");
         // Each row snaps a little as it leaves the corner, which a link
-        // cuts (README, limitations); it does not hook there.
-        assert!(peak < 0.5, "{name}: {peak}");
+        // cuts (README, limitations): 13 to 21 % with the defaults, 45 to
+        // 54 % with BDF2 (the SIMD and the portable path). A cloth hooked
+        // on the corner stretches 150 % and more.
+        assert!(peak < 0.8, "{name}: {peak}");
         assert!(end < 0.05, "{name}: {end}");
     }
 }
