@@ -51,10 +51,10 @@ pub struct LodSettings {
     /// `k` times the cloth's
     /// [`ImplicitParams::tolerance`](crate::sim::settings::ImplicitParams::tolerance)
     /// (at most 0.1; the cloth is `k/2` to `k` times farther than `near`,
-    /// or unseen) within `1/k` of its
-    /// [`max_iterations`](crate::sim::settings::ImplicitParams::max_iterations)
-    /// (at least 10): per second, its solve spends no more than a cloth
-    /// stepping every fixed step may.
+    /// or unseen), with the same
+    /// [`max_iterations`](crate::sim::settings::ImplicitParams::max_iterations).
+    /// The rate is earned ([`Pacer`]): it halves after a step past
+    /// [`LOD_STRAIN`].
     pub max_every: u32,
 }
 
