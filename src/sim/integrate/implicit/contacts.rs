@@ -118,11 +118,12 @@ pub const STICK_SPEED: f32 = 1e-4;
 
 /// How far past its Coulomb bound a contact's holding friction (or that on
 /// a free body, net across its weight) may go before it slides instead
-/// (dimensionless, [`ContactBuffers::revise`]). A held particle creeping
-/// at up to `GRIP_LIMIT` times [`STICK_SPEED`] is left to the next step. On
-/// a body the holds, stiffer than the normal springs, carry part of a
-/// ball's weight in a pocket, up to about 1.3 times its bound at rest; a
-/// plate on a cloth pulled from under it shows ten times and more.
+/// (dimensionless; module docs). A held particle creeping at up to
+/// `GRIP_LIMIT` times [`STICK_SPEED`] is left to the next step. On a body
+/// the holds, stiffer than the normal springs, carry part of a ball's
+/// weight in a pocket: at rest its net friction is 1.3 to 1.9 times its
+/// bound, and across its weight up to about 1.3 times. A plate on a cloth
+/// pulled from under it shows ten times and more.
 pub const GRIP_LIMIT: f32 = 3.0;
 
 /// How friction acts on a held contact in this step's solve.
