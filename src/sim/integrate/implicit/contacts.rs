@@ -424,8 +424,9 @@ impl ContactBuffers {
     ///   (its engine's acceleration), took more than [`GRIP_LIMIT`] times
     ///   its Coulomb bound `Σ μ λ` (a cloth pulled from under it faster than
     ///   friction can carry it) slides: each of its contacts past its own
-    ///   bound `μ λ` takes that bound, in the direction its friction acted. Held by a damping sized for creeping,
-    ///   the body would be carried along with the cloth at any speed.
+    ///   bound `μ λ` takes that bound, in the direction its friction acted.
+    ///   Held by a damping sized for creeping, the body would be carried
+    ///   along with the cloth at any speed.
     ///
     /// `v` each particle's velocity at the end of the solve (m/s), `dv` the
     /// solve's `Δv` (m/s), `coupling` the free bodies' velocity changes, `γ`
