@@ -736,3 +736,40 @@ fn a_body_of_several_colliders_rests_in_a_hammock_as_one() {
     assert!(at.y > 0.5 && at.y < 1.0, "{at}");
     assert!(speed < 0.02, "still moving at {speed} m/s");
 }
+
+#[test]
+#[ignore = "a particle keeps one contact, its nearest: between the floor and a body it keeps the floor's, and the body sinks through the cloth to the floor"]
+fn a_plate_on_a_cloth_on_the_floor_rests_on_the_cloth() {
+    // A 0.5 kg plate (r 11 cm, 2 cm tall) set down on a sheet lying on an
+    // avian floor must rest on the cloth: its bottom at least half the
+    // cloth's 5 mm contact thickness above the particles under it.
+    let mut app = app();
+    floor(&mut app);
+    let (cloth, _) = sheet(&mut app, 0.005);
+    let plate = app
+        .world_mut()
+        .spawn((
+            RigidBody::Dynamic,
+            Collider::cylinder(0.11, 0.02),
+            Mass(0.5),
+            Transform::from_xyz(0.0, 0.03, 0.0),
+        ))
+        .id();
+    run(&mut app, 60, cloth);
+    let centre = app.world().get::<Position>(plate).unwrap().0;
+    let under = positions(&app, cloth)
+        .into_iter()
+        .filter(|x| x.xz().distance(centre.xz()) < 0.1)
+        .map(|x| x.y)
+        .fold(f32::MIN, f32::max);
+    let bottom = centre.y - 0.01;
+    eprintln!(
+        "the plate's bottom is {:.2} mm above the cloth under it",
+        1000.0 * (bottom - under)
+    );
+    assert!(
+        bottom - under > 0.0025,
+        "the plate's bottom is {:.1} mm above the cloth under it",
+        1000.0 * (bottom - under)
+    );
+}
