@@ -328,7 +328,12 @@ impl ContactHook for SceneContacts<'_> {
                 contact.source = c as u32;
             }
         }
-        predict::keep_nearest(out);
+        let colliders = &self.scene.colliders;
+        predict::keep_nearest(out, |source| {
+            colliders
+                .get(source as usize)
+                .is_some_and(|c| c.body().is_some())
+        });
         // A body that gives way moves within the solve, under all its
         // contacts at once, from where the substeps so far took it. The
         // pieces of one collider, and the colliders of one body (the same

@@ -42,7 +42,9 @@
 //! together. Its sliding friction is a damping `μ λ / speed` as well, held
 //! in step with the body, so friction never turns a light body past the
 //! cloth. After the solve, two kinds of contact with a body are corrected
-//! and the step solved again once: a contact whose spring ends up pulling
+//! and the step solved again, until a pass corrects nothing (at most 8
+//! passes; one correction can show the next, as under a plate on a
+//! tablecloth over a table): a contact whose spring ends up pulling
 //! the body (the particle was leaving it) is let go, and a body that
 //! friction carried along faster than Coulomb's law allows (a cloth pulled
 //! from under a plate) slides ([`GRIP_LIMIT`]). The caller applies the
@@ -564,8 +566,10 @@ impl ContactBuffers {
                 // The spring held the particle back: it was leaving.
                 continue;
             }
-            self.load[p] = force;
-            self.hold[p] = if along.length() < STICK_SPEED {
+            // A particle squeezed between a surface and a body has two
+            // contacts: the larger load, and sliding if either slides.
+            self.load[p] = self.load[p].max(force);
+            self.hold[p] = if along.length() < STICK_SPEED && self.hold[p] != Hold::Slide {
                 Hold::Stick
             } else {
                 Hold::Slide
