@@ -3,6 +3,7 @@
 //! bodies feel the cloth (hammock, bounce, momentum).
 
 mod common;
+use common::{grab_where_they_are, move_grabs};
 
 use std::f32::consts::FRAC_PI_2;
 
@@ -737,23 +738,30 @@ fn a_body_of_several_colliders_rests_in_a_hammock_as_one() {
     assert!(speed < 0.02, "still moving at {speed} m/s");
 }
 
-#[test]
-fn a_plate_on_a_cloth_on_the_floor_rests_on_the_cloth() {
-    // A 0.5 kg plate (r 11 cm, 2 cm tall) set down on a sheet lying on an
-    // avian floor must rest on the cloth: its bottom at least half the
-    // cloth's 5 mm contact thickness above the particles under it.
-    let mut app = app();
-    floor(&mut app);
-    let (cloth, _) = sheet(&mut app, 0.005);
+/// A 1.2 m sheet lying on an avian floor and a 0.5 kg plate (r 11 cm,
+/// 2 cm tall, friction 0.2) set down on its middle: the cloth and the plate.
+fn plate_on_a_sheet(app: &mut App) -> (Entity, Entity) {
+    floor(app);
+    let (cloth, _) = sheet(app, 0.005);
     let plate = app
         .world_mut()
         .spawn((
             RigidBody::Dynamic,
             Collider::cylinder(0.11, 0.02),
             Mass(0.5),
-            Transform::from_xyz(0.0, 0.03, 0.0),
+            Friction::new(0.2),
+            Transform::from_xyz(0.0, 0.025, 0.0),
         ))
         .id();
+    (cloth, plate)
+}
+
+#[test]
+fn a_plate_on_a_cloth_on_the_floor_rests_on_the_cloth() {
+    // The plate must rest on the cloth: its bottom at least half the
+    // cloth's 5 mm contact thickness above the particles under it.
+    let mut app = app();
+    let (cloth, plate) = plate_on_a_sheet(&mut app);
     run(&mut app, 60, cloth);
     let centre = app.world().get::<Position>(plate).unwrap().0;
     let under = positions(&app, cloth)
@@ -775,45 +783,22 @@ fn a_plate_on_a_cloth_on_the_floor_rests_on_the_cloth() {
 
 #[test]
 fn a_cloth_yanked_from_under_a_plate_leaves_it_behind() {
-    // The tablecloth trick on the floor: a 0.5 kg plate on a 1.2 m sheet
-    // whose edge is pulled along the floor at 7 m/s until the cloth is out
-    // from under it. Friction (the plate's μ 0.2 with cotton's) can give
-    // the plate some 0.5 m/s while the cloth slides under it, and the
-    // floor stops it within a few centimetres.
+    // The tablecloth trick on the floor: the sheet's edge is pulled along
+    // the floor at 7 m/s until the cloth is out from under the plate.
+    // Friction (the plate's μ 0.2 with cotton's) can give the plate some
+    // 0.5 m/s while the cloth slides under it, and the floor stops it
+    // within a few centimetres.
     let mut app = app();
-    floor(&mut app);
-    let (cloth, _) = sheet(&mut app, 0.005);
-    let plate = app
-        .world_mut()
-        .spawn((
-            RigidBody::Dynamic,
-            Collider::cylinder(0.11, 0.02),
-            Mass(0.5),
-            Friction::new(0.2),
-            Transform::from_xyz(0.0, 0.021, 0.0),
-        ))
-        .id();
+    let (cloth, plate) = plate_on_a_sheet(&mut app);
     run(&mut app, 30, cloth);
     let start = app.world().get::<Position>(plate).unwrap().0;
-    let x = positions(&app, cloth);
     let n = 21;
     let edge: Vec<u32> = ((n - 1) * n..n * n).collect();
-    let mut grabs = app.world_mut().get_mut::<ClothGrabs>(cloth).unwrap();
-    for &p in &edge {
-        grabs.grab(p, x[p as usize], GrabMode::Kinematic);
-    }
+    grab_where_they_are(&mut app, cloth, &edge);
     for k in 0..24 {
         // The hand reaches 7 m/s in 0.1 s.
         let speed = 7.0 * ((k + 1) as f32 / 6.0).min(1.0);
-        let mut grabs = app.world_mut().get_mut::<ClothGrabs>(cloth).unwrap();
-        let targets: Vec<(u32, Vec3)> = grabs
-            .grabs()
-            .iter()
-            .map(|g| (g.particle, g.target))
-            .collect();
-        for (p, t) in targets {
-            grabs.set_target(p, t + Vec3::Z * speed / 60.0);
-        }
+        move_grabs(&mut app, cloth, Vec3::Z * speed / 60.0);
         app.update();
     }
     app.world_mut()

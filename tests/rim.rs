@@ -6,27 +6,15 @@ mod common;
 
 use bevy::prelude::*;
 use bevy_cloth::prelude::*;
-use common::{app, particles};
+use common::{app, grab_where_they_are, move_grabs, particles};
 
 /// Pulls the grabbed `edge` of `cloth` along `velocity` (m/s) for `frames`
 /// 60 Hz frames, then lets go; returns the largest strain over the pull.
 fn pull(app: &mut App, cloth: Entity, edge: &[u32], velocity: Vec3, frames: usize) -> f32 {
-    let x = particles(app, cloth).positions.clone();
-    let mut grabs = app.world_mut().get_mut::<ClothGrabs>(cloth).unwrap();
-    for &p in edge {
-        grabs.grab(p, x[p as usize], GrabMode::Kinematic);
-    }
+    grab_where_they_are(app, cloth, edge);
     let mut worst = 0.0f32;
     for k in 0..frames {
-        let mut grabs = app.world_mut().get_mut::<ClothGrabs>(cloth).unwrap();
-        let targets: Vec<(u32, Vec3)> = grabs
-            .grabs()
-            .iter()
-            .map(|g| (g.particle, g.target))
-            .collect();
-        for (p, t) in targets {
-            grabs.set_target(p, t + velocity / 60.0);
-        }
+        move_grabs(app, cloth, velocity / 60.0);
         app.update();
         let stats = app.world().get::<ClothStats>(cloth).unwrap();
         assert!(stats.finite, "non-finite at frame {k}");

@@ -28,6 +28,33 @@ pub fn app() -> App {
     app
 }
 
+/// Grabs `particles` of `cloth` where they are, kinematically.
+pub fn grab_where_they_are(app: &mut App, cloth: Entity, particles: &[u32]) {
+    let x = app
+        .world()
+        .get::<ClothParticles>(cloth)
+        .unwrap()
+        .positions
+        .clone();
+    let mut grabs = app.world_mut().get_mut::<ClothGrabs>(cloth).unwrap();
+    for &p in particles {
+        grabs.grab(p, x[p as usize], GrabMode::Kinematic);
+    }
+}
+
+/// Moves every grab target of `cloth` by `by` (m).
+pub fn move_grabs(app: &mut App, cloth: Entity, by: Vec3) {
+    let mut grabs = app.world_mut().get_mut::<ClothGrabs>(cloth).unwrap();
+    let targets: Vec<(u32, Vec3)> = grabs
+        .grabs()
+        .iter()
+        .map(|g| (g.particle, g.target))
+        .collect();
+    for (p, t) in targets {
+        grabs.set_target(p, t + by);
+    }
+}
+
 /// The particles of cloth `e`.
 pub fn particles(app: &App, e: Entity) -> &ClothParticles {
     app.world().get::<ClothParticles>(e).unwrap()
