@@ -10,7 +10,7 @@ use bevy::ecs::message::Messages;
 use bevy::prelude::*;
 use bevy_cloth::plugin::events::ClothDiverged;
 use bevy_cloth::prelude::*;
-use common::{Rng, app, particles};
+use common::{Rng, app, grab_where_they_are, move_grabs, particles};
 
 /// The settings a case runs with: the defaults, or the defaults with another
 /// integrator at one step per fixed step (explicit ones add their adaptive
@@ -140,22 +140,10 @@ fn yank(app: &mut App, e: Entity, n: u32, speed: f32, seconds: f32) {
     let edge: Vec<u32> = (0..n).map(|i| (n - 1) * n + i).collect();
     let frames = (seconds * 60.0).round() as usize;
     for _ in 0..frames {
-        let mut grabs = app.world_mut().get_mut::<ClothGrabs>(e).unwrap();
-        if grabs.is_empty() {
-            let x = particles(app, e).positions.clone();
-            let mut grabs = app.world_mut().get_mut::<ClothGrabs>(e).unwrap();
-            for &p in &edge {
-                grabs.grab(p, x[p as usize], GrabMode::Kinematic);
-            }
+        if app.world().get::<ClothGrabs>(e).unwrap().is_empty() {
+            grab_where_they_are(app, e, &edge);
         } else {
-            let targets: Vec<(u32, Vec3)> = grabs
-                .grabs()
-                .iter()
-                .map(|g| (g.particle, g.target))
-                .collect();
-            for (p, t) in targets {
-                grabs.set_target(p, t + Vec3::new(0.0, -0.3, 1.0).normalize() * speed / 60.0);
-            }
+            move_grabs(app, e, Vec3::new(0.0, -0.3, 1.0).normalize() * speed / 60.0);
         }
         step(app);
     }
