@@ -120,6 +120,8 @@ pub(crate) struct ClothScratch {
     pub(crate) measured: Measured,
     /// The contact pass's masked inverse masses.
     pub(crate) masked: Vec<f32>,
+    /// The edge contacts' scratch.
+    pub(crate) edge_points: Vec<(Vec3, f32, Vec3)>,
     /// The impulses this step gave colliders with feedback.
     pub(crate) feedback: Feedback,
     /// Whether the cloth is at rest, and for how long it has been calm.
@@ -365,7 +367,9 @@ pub(crate) fn step_cloths(
             in_solve: item.collision.as_ref().is_none_or(|c| c.in_solve),
             self_collision,
             tethers,
+            links: [&connections.structural, &connections.shear],
             masked: &mut scratch.masked,
+            edge_points: &mut scratch.edge_points,
             feedback: &mut scratch.feedback,
             counts: Default::default(),
         });

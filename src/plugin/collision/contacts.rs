@@ -7,9 +7,10 @@ use bevy::math::{Isometry3d, Quat, Vec3};
 use crate::plugin::collision::scene::{ColliderScene, ContactImpulse, SceneCollider};
 use crate::plugin::components::Cloth;
 use crate::sim::collision::contact::{MovingCollider, collide_particles};
-use crate::sim::collision::predict;
 use crate::sim::collision::self_collision::self_collide;
 use crate::sim::collision::{Counts, SelfCollisionBuffers};
+use crate::sim::collision::{edges, predict};
+use crate::sim::connections::Link;
 use crate::sim::integrate::implicit::{ContactBuffers, Hold, SolveBody, SolveContact};
 use crate::sim::step::{ContactHook, Substep};
 use crate::sim::team::both;
@@ -219,8 +220,15 @@ pub(crate) struct SceneContacts<'a> {
     /// The cloth's tethers and their slack, applied before the contacts
     /// ([`ClothTethers`](crate::plugin::tether::ClothTethers)).
     pub(crate) tethers: Option<(&'a Tethers, f32)>,
+    /// The cloth's Type 1 links (structural and shear), held off the
+    /// colliders' edges and corners in the solve
+    /// ([`edges`](crate::sim::collision::edges)).
+    pub(crate) links: [&'a [Link]; 2],
     /// Scratch: the inverse masses with the held particles' zeroed.
     pub(crate) masked: &'a mut Vec<f32>,
+    /// Scratch of the edge contacts: each particle's local position,
+    /// distance (m) and normal.
+    pub(crate) edge_points: &'a mut Vec<(Vec3, f32, Vec3)>,
     /// The impulses on colliders with feedback.
     pub(crate) feedback: &'a mut Feedback,
     /// Tests and contacts so far: against colliders, with itself.
@@ -317,13 +325,19 @@ impl ContactHook for SceneContacts<'_> {
             let collider = &self.scene.colliders[c];
             let moving = self.feedback.moving(collider, c, sub);
             let from = out.len();
-            predict::predict_contacts(
-                &moving,
-                (x, v, w),
-                (self.thickness + collider.margin, sub.dt),
-                collider.body().is_some(),
-                out,
-            );
+            let free = collider.body().is_some();
+            let thickness = self.thickness + collider.margin;
+            predict::predict_contacts(&moving, (x, v, w), (thickness, sub.dt), free, out);
+            if !free {
+                edges::predict_edge_contacts(
+                    &moving,
+                    &self.links,
+                    (x, v, w),
+                    (thickness, sub.dt),
+                    self.edge_points,
+                    out,
+                );
+            }
             for contact in &mut out[from..] {
                 contact.source = c as u32;
             }

@@ -8,6 +8,7 @@
 //! [`plugin::collision`](crate::plugin::collision).
 
 pub mod contact;
+pub mod edges;
 pub mod narrow;
 pub mod predict;
 pub mod self_collision;

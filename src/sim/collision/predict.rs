@@ -91,6 +91,7 @@ pub fn predict_contacts(
                 friction: collider.friction,
                 source: 0,
                 body: NO_BODY,
+                edge: false,
             });
         }
     }
@@ -98,7 +99,7 @@ pub fn predict_contacts(
 
 /// Distance (m) from local point `p` to the nearest triangle of `mesh`
 /// within `reach` m, and the outward normal there (towards `p`), or `None`.
-fn mesh_distance(mesh: &TriMesh, p: Vec3, reach: f32) -> Option<(f32, Vec3)> {
+pub(super) fn mesh_distance(mesh: &TriMesh, p: Vec3, reach: f32) -> Option<(f32, Vec3)> {
     let pad = Vec3::splat(reach);
     let mut nearest: Option<(f32, usize, Vec3)> = None;
     mesh.query(p - pad, p + pad, |t| {
@@ -127,8 +128,10 @@ fn mesh_distance(mesh: &TriMesh, p: Vec3, reach: f32) -> Option<(f32, Vec3)> {
 /// with a spring that yields to very large forces (a violent yank over an
 /// edge), and a fast collider can carry its surface past that plane; this
 /// catches both, along the particle's path (`start` → `x`, m), so it cannot
-/// pass through a thin collider. Their friction is the solve's: nothing
-/// else changes. Returns how many were pushed.
+/// pass through a thin collider. A particle that ends less than the
+/// thickness inside a shape comes out the shortest way instead (it was
+/// held on, or carried along, its surface). Their friction is the solve's:
+/// nothing else changes. Returns how many were pushed.
 pub fn push_out_held(
     collider: &MovingCollider,
     held: &[Hold],
@@ -148,7 +151,22 @@ pub fn push_out_held(
         }
         let (p0, p1) = (to0.transform_point3(start[p]), to1.transform_point3(x[p]));
         // The first point of the path inside the collider itself.
+        let end = match collider.geometry {
+            Geometry::Shape(ref shape) => Some(shape.distance(p1)),
+            Geometry::Mesh(_) => None,
+        };
         let entry = match collider.geometry {
+            // Just inside at the end (a hair past the plane it was held on,
+            // or carried along the surface into a face it is held off): out
+            // by the shortest way. Back along its path, a particle carried
+            // along a surface would lose the step's motion there.
+            Geometry::Shape(_)
+                if let Some((d, n)) = end
+                    && d < 0.0
+                    && d > -thickness =>
+            {
+                Some((p1 - d * n, n))
+            }
             Geometry::Shape(ref shape) => sweep(shape, p0, p1, 0.0).map(|t| {
                 // On the surface (a path that starts inside starts there).
                 let q = p0.lerp(p1, t);
@@ -194,13 +212,18 @@ fn mesh_crossing(mesh: &TriMesh, p0: Vec3, p1: Vec3) -> Option<(Vec3, Vec3)> {
 }
 
 /// Keeps, for each particle listed more than once, its contact with the
+/// smallest gap, and its edge contact ([`SolveContact::edge`]) with the
 /// smallest gap, and sorts the list by particle. A particle squeezed
 /// between a fixed surface and a free body (`free(source)`, with their
 /// normals facing each other) keeps the nearest contact of each kind: a
 /// plate on a tablecloth on a table rests on the cloth, which rests on the
 /// table, rather than sinking through the cloth.
 pub fn keep_nearest(contacts: &mut Vec<SolveContact>, free: impl Fn(u32) -> bool) {
-    contacts.sort_unstable_by(|a, b| a.particle.cmp(&b.particle).then(a.gap.total_cmp(&b.gap)));
+    contacts.sort_unstable_by(|a, b| {
+        (a.particle.cmp(&b.particle))
+            .then(a.edge.cmp(&b.edge))
+            .then(a.gap.total_cmp(&b.gap))
+    });
     let (mut kept, mut i) = (0, 0);
     while i < contacts.len() {
         let nearest = contacts[i];
@@ -208,9 +231,13 @@ pub fn keep_nearest(contacts: &mut Vec<SolveContact>, free: impl Fn(u32) -> bool
         kept += 1;
         let mut other = false;
         i += 1;
-        while i < contacts.len() && contacts[i].particle == nearest.particle {
+        while i < contacts.len()
+            && contacts[i].particle == nearest.particle
+            && contacts[i].edge == nearest.edge
+        {
             let c = contacts[i];
             if !other
+                && !c.edge
                 && free(c.source) != free(nearest.source)
                 && c.normal.dot(nearest.normal) < 0.0
             {
@@ -222,7 +249,27 @@ pub fn keep_nearest(contacts: &mut Vec<SolveContact>, free: impl Fn(u32) -> bool
         }
     }
     contacts.truncate(kept);
+    // A particle at a corner that a link of it wraps: its own contact's
+    // normal force is the straight link's pull into the face, which the
+    // corner carries on a cloth that wraps it. As friction it would hold
+    // the particle against the pull (a skirt pulled back over a table's
+    // rim); the face holds it without friction.
+    for group in contacts.chunk_by_mut(|a, b| a.particle == b.particle) {
+        let Some(edge) = group.iter().find(|c| c.edge).map(|c| c.normal) else {
+            continue;
+        };
+        for c in group.iter_mut() {
+            if !c.edge && c.normal.dot(edge) < CORNER_COS {
+                c.friction = 0.0;
+            }
+        }
+    }
 }
+
+/// The cosine of the smallest angle between a particle's own contact and a
+/// link's edge contact on it at which the particle counts as at a corner
+/// ([`keep_nearest`]): 30°.
+const CORNER_COS: f32 = 0.866;
 
 #[cfg(test)]
 mod tests {
@@ -272,6 +319,7 @@ mod tests {
             friction: 0.0,
             source: 0,
             body: NO_BODY,
+            edge: false,
         };
         let mut list = vec![c(3, 0.0), c(1, 0.2), c(3, -0.1), c(1, 0.1)];
         keep_nearest(&mut list, |_| false);
@@ -333,6 +381,7 @@ mod tests {
             friction: 0.0,
             source,
             body: NO_BODY,
+            edge: false,
         };
         let mut list = vec![
             // Squeezed: the table below, the plate above, and a second
@@ -348,5 +397,76 @@ mod tests {
         let kept: Vec<(u32, f32, u32)> =
             list.iter().map(|c| (c.particle, c.gap, c.source)).collect();
         assert_eq!(kept, [(2, 0.0, 0), (2, 0.001, 1), (5, 0.0, 0)]);
+    }
+
+    #[test]
+    fn a_particle_at_a_corner_a_link_wraps_keeps_its_nearest_edge_contact_and_a_frictionless_face()
+    {
+        let c = |particle, gap, normal: Vec3, edge| SolveContact {
+            particle,
+            normal: normal.normalize(),
+            gap,
+            velocity: Vec3::ZERO,
+            friction: 0.5,
+            source: 0,
+            body: NO_BODY,
+            edge,
+        };
+        let mut list = vec![
+            // On a table's side, two links over its rim.
+            c(1, 0.0, Vec3::X, false),
+            c(1, -0.01, Vec3::new(1.0, 1.0, 0.0), true),
+            c(1, -0.02, Vec3::new(1.0, 2.0, 0.0), true),
+            // On its top, a link over a gentle bump in it.
+            c(4, 0.0, Vec3::Y, false),
+            c(4, -0.001, Vec3::new(0.1, 1.0, 0.0), true),
+        ];
+        keep_nearest(&mut list, |_| false);
+        let kept: Vec<(u32, f32, bool, f32)> = list
+            .iter()
+            .map(|c| (c.particle, c.gap, c.edge, c.friction))
+            .collect();
+        assert_eq!(
+            kept,
+            [
+                (1, 0.0, false, 0.0),
+                (1, -0.02, true, 0.5),
+                (4, 0.0, false, 0.5),
+                (4, -0.001, true, 0.5)
+            ]
+        );
+    }
+
+    #[test]
+    fn a_held_particle_just_inside_comes_out_the_shortest_way_and_a_deep_one_along_its_path() {
+        // A table top 4 cm thick, its top at y = 0. One particle carried
+        // 10 cm along under it ends 1 mm inside its bottom; one that went
+        // 3 cm into its top comes back out where it entered.
+        let table = MovingCollider {
+            geometry: Geometry::Shape(Shape::Cuboid {
+                half_extents: Vec3::new(0.6, 0.02, 0.6),
+            }),
+            start: Isometry3d::from_translation(Vec3::new(0.0, -0.02, 0.0)),
+            end: Isometry3d::from_translation(Vec3::new(0.0, -0.02, 0.0)),
+            friction: 0.5,
+            restitution: 0.0,
+        };
+        let start = [Vec3::new(0.0, -0.045, 0.0), Vec3::new(0.2, 0.005, 0.0)];
+        let mut x = [Vec3::new(0.1, -0.039, 0.0), Vec3::new(0.21, -0.025, 0.0)];
+        let mut v = [Vec3::new(6.0, 0.36, 0.0), Vec3::new(0.6, -1.8, 0.0)];
+        let held = [Hold::Stick; 2];
+        let pushed = push_out_held(&table, &held, (&start, &mut x, &mut v), 0.005, 1.0 / 60.0);
+        assert_eq!(pushed, 2);
+        assert!(
+            x[0].distance(Vec3::new(0.1, -0.045, 0.0)) < 1e-5,
+            "{}",
+            x[0]
+        );
+        assert_eq!(v[0], Vec3::new(6.0, 0.0, 0.0));
+        assert!(
+            (x[1].y - 0.005).abs() < 1e-5 && (x[1].x - 0.2).abs() < 0.01,
+            "{}",
+            x[1]
+        );
     }
 }

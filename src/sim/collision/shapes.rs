@@ -84,6 +84,35 @@ impl Shape {
         }
     }
 
+    /// The shape's support along unit direction `u`: the largest `p · u`
+    /// (m) over its points (`∞` for the plane, except straight down).
+    pub fn support(&self, u: Vec3) -> f32 {
+        let across = |u: Vec3| Vec2::new(u.x, u.z).length();
+        match *self {
+            Shape::Sphere { radius } => radius,
+            Shape::Plane => {
+                if u.y <= -1.0 + 1e-6 {
+                    0.0
+                } else {
+                    f32::INFINITY
+                }
+            }
+            Shape::Cuboid { half_extents } => u.abs().dot(half_extents),
+            Shape::Capsule {
+                radius,
+                half_length,
+            } => radius + half_length * u.y.abs(),
+            Shape::Cylinder {
+                radius,
+                half_height,
+            } => radius * across(u) + half_height * u.y.abs(),
+            Shape::Cone {
+                radius,
+                half_height,
+            } => (half_height * u.y).max(radius * across(u) - half_height * u.y),
+        }
+    }
+
     /// Radius in m of a ball around the local origin that holds the shape
     /// (`∞` for the plane), for the broad phase.
     pub fn bounding_radius(&self) -> f32 {

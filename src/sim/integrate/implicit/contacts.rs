@@ -82,6 +82,12 @@ pub struct SolveContact {
     /// [`ContactBuffers::bodies`], or [`NO_BODY`] for a surface that moves
     /// as it was going to whatever the cloth does.
     pub body: u32,
+    /// Whether the particle is held as an end of a link whose point between
+    /// its ends touches the surface
+    /// ([`collision::edges`](crate::sim::collision::edges)): `normal`,
+    /// `gap` and `velocity` are that point's. Its normal force is kept
+    /// apart from the particle's own contact's, for its friction.
+    pub edge: bool,
 }
 
 /// [`SolveContact::body`] of a surface with no free body behind it.
@@ -186,8 +192,9 @@ pub struct ContactBuffers {
     pub bodies: Vec<SolveBody>,
     /// How each particle was held in the last step.
     pub(super) hold: Vec<Hold>,
-    /// Each particle's normal force in the last step (N; 0 when free).
-    load: Vec<f32>,
+    /// Each particle's normal force in the last step (N; 0 when free): of
+    /// its own contact, and of its edge contact.
+    load: Vec<[f32; 2]>,
     /// Whether any particle is held now (so `hold` needs clearing).
     pub(super) any: bool,
     /// This step's held contacts.
@@ -280,7 +287,7 @@ impl ContactBuffers {
             return false;
         }
         self.hold.resize(n, Hold::Free);
-        self.load.resize(n, 0.0);
+        self.load.resize(n, [0.0; 2]);
         // How many contacts each free body has: each shows its share of
         // the body's mass along the surface to sliding friction.
         self.counts.clear();
@@ -321,7 +328,7 @@ impl ContactBuffers {
             let relative = v[p] - c.velocity;
             let along = relative - relative.dot(c.normal) * c.normal;
             let speed = along.length();
-            let load = self.load[p].max(pressure).max(0.0);
+            let load = self.load[p][c.edge as usize].max(pressure).max(0.0);
             // Sliding: Coulomb's force against the motion (`finish` stops
             // it rather than let it reverse). Otherwise held, by a damping
             // that lets it creep below the stick speed: a load past the
@@ -361,7 +368,7 @@ impl ContactBuffers {
             });
         }
         self.hold.fill(Hold::Free);
-        self.load.fill(0.0);
+        self.load.fill([0.0; 2]);
         self.any = !self.held.is_empty();
         self.any
     }
@@ -568,7 +575,8 @@ impl ContactBuffers {
             }
             // A particle squeezed between a surface and a body has two
             // contacts: the larger load, and sliding if either slides.
-            self.load[p] = self.load[p].max(force);
+            let load = &mut self.load[p][c.edge as usize];
+            *load = load.max(force);
             self.hold[p] = if along.length() < STICK_SPEED && self.hold[p] != Hold::Slide {
                 Hold::Stick
             } else {

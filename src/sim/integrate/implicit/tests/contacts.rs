@@ -57,6 +57,7 @@ fn touching(particle: u32, normal: Vec3, gap: f32, mu: f32, body: u32) -> SolveC
         friction: mu,
         source: 0,
         body,
+        edge: false,
     }
 }
 
@@ -81,6 +82,7 @@ fn on_floor(y: f32, push: Vec3, mu: f32, steps: usize) -> (Vec3, Vec3, Hold) {
                     friction: mu,
                     source: 0,
                     body: NO_BODY,
+                    edge: false,
                 });
             }
             backward_euler(dynamics, &mut x, &mut v, H, &mut buffers);
@@ -121,6 +123,7 @@ fn a_falling_particle_lands_on_the_floor_in_one_step() {
         friction: 0.0,
         source: 0,
         body: NO_BODY,
+        edge: false,
     });
     backward_euler(&dynamics, &mut x, &mut v, H, &mut buffers);
     // It ends on the surface (to within 1/(1 + κ) of the 5 cm it would
@@ -187,6 +190,7 @@ fn land_on(body_mass: f32) -> (Vec3, Vec3, Vec3) {
             friction: 0.0,
             source: 7,
             body: if body_mass.is_finite() { 0 } else { NO_BODY },
+            edge: false,
         });
         let body = SolveBody::new(body_mass, Vec3::NEG_Y * 0.1);
         buffers.contacts.bodies.push(body);
