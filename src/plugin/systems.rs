@@ -121,7 +121,7 @@ pub(crate) struct ClothScratch {
     /// The contact pass's masked inverse masses.
     pub(crate) masked: Vec<f32>,
     /// The edge contacts' scratch.
-    pub(crate) edge_points: Vec<(Vec3, f32, Vec3)>,
+    pub(crate) edge_points: Vec<(Vec3, f32, Vec3, f32)>,
     /// The impulses this step gave colliders with feedback.
     pub(crate) feedback: Feedback,
     /// Whether the cloth is at rest, and for how long it has been calm.

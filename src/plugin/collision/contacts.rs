@@ -227,8 +227,8 @@ pub(crate) struct SceneContacts<'a> {
     /// Scratch: the inverse masses with the held particles' zeroed.
     pub(crate) masked: &'a mut Vec<f32>,
     /// Scratch of the edge contacts: each particle's local position,
-    /// distance (m) and normal.
-    pub(crate) edge_points: &'a mut Vec<(Vec3, f32, Vec3)>,
+    /// distance (m), normal and surface speed (m/s).
+    pub(crate) edge_points: &'a mut Vec<(Vec3, f32, Vec3, f32)>,
     /// The impulses on colliders with feedback.
     pub(crate) feedback: &'a mut Feedback,
     /// Tests and contacts so far: against colliders, with itself.

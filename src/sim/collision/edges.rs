@@ -67,7 +67,8 @@ const SECTIONS: usize = 24;
 /// (its poses at the start and end of a step of `dt` s), for particles at
 /// `x` (m) moving at `v` (m/s) with inverse masses `w` (1/kg, 0 pinned), at
 /// a contact thickness of `thickness` m. `near` is scratch: each particle's
-/// local position, distance (m) and normal.
+/// local position, distance (m), normal, and the collider's surface speed
+/// there (m/s).
 ///
 /// Each contact is marked [`SolveContact::edge`]; its `source` is 0.
 pub fn predict_edge_contacts(
@@ -75,7 +76,7 @@ pub fn predict_edge_contacts(
     links: &[&[Link]],
     (x, v, w): (&[Vec3], &[Vec3], &[f32]),
     (thickness, dt): (f32, f32),
-    near: &mut Vec<(Vec3, f32, Vec3)>,
+    near: &mut Vec<(Vec3, f32, Vec3, f32)>,
     out: &mut Vec<SolveContact>,
 ) {
     let edge = EDGE_THICKNESS * thickness;
@@ -89,24 +90,43 @@ pub fn predict_edge_contacts(
         .fold(0.0f32, f32::max);
     let fastest = v.iter().map(|v| v.length()).fold(0.0f32, f32::max);
     let cap = thickness + longest + 2.0 * fastest * dt + TOUCH;
+    // Only the particles within reach of the collider are measured; the
+    // others are at an infinite distance. A plane's distance is linear
+    // along a link, whose nearest point is then an end.
+    let (lo, hi) = match collider.geometry {
+        Geometry::Shape(Shape::Plane) => return,
+        Geometry::Shape(ref shape) => (
+            Vec3::splat(-shape.bounding_radius()),
+            Vec3::splat(shape.bounding_radius()),
+        ),
+        Geometry::Mesh(mesh) => mesh.bounds(),
+    };
+    let (lo, hi) = (lo - Vec3::splat(cap), hi + Vec3::splat(cap));
     near.clear();
     near.extend(x.iter().map(|&p| {
         let local = to_local.transform_point3(p);
+        if local.cmplt(lo).any() || local.cmpgt(hi).any() {
+            return (local, f32::INFINITY, Vec3::ZERO, 0.0);
+        }
         let (d, n) = match collider.geometry {
             Geometry::Shape(ref shape) => shape.distance(local),
             Geometry::Mesh(mesh) => {
                 mesh_distance(mesh, local, cap).unwrap_or((f32::INFINITY, Vec3::ZERO))
             }
         };
-        (local, d, n)
+        let surface = (end.transform_point3(local) - p).length() / dt;
+        (local, d, n, surface)
     }));
     for link in links.iter().flat_map(|l| l.iter()) {
         let (a, b) = (link.a as usize, link.b as usize);
-        let (Some(&(la, da, na)), Some(&(lb, db, nb))) = (near.get(a), near.get(b)) else {
+        let (Some(&(la, da, na, ua)), Some(&(lb, db, nb, ub))) = (near.get(a), near.get(b)) else {
             continue;
         };
+        if !(da.is_finite() && db.is_finite()) {
+            continue;
+        }
         let (wa, wb) = (w[a], w[b]);
-        if (wa == 0.0 && wb == 0.0) || !(da.is_finite() && db.is_finite()) {
+        if wa == 0.0 && wb == 0.0 {
             continue;
         }
         // A nearest point between the ends needs both ends' normals to face
@@ -116,10 +136,18 @@ pub fn predict_edge_contacts(
         if sa >= 0.0 || sb >= 0.0 {
             continue;
         }
-        let reach = edge + TOUCH + (v[a].length() + v[b].length()) * dt + 2.0 * fastest * dt;
+        let reach = edge + TOUCH + (v[a].length() + v[b].length() + ua.max(ub)) * dt;
         let nearest = match collider.geometry {
             Geometry::Shape(ref shape) => {
-                if tangent_bound((da, sa), (db, sb)) > reach {
+                // Convex along the link, the distance stays above its
+                // tangent lines at the ends and its secants: too far, or
+                // not nearer than the ends by the dip.
+                let far = |low: f32| low > reach || low >= da.min(db) - EDGE_DIP * thickness;
+                if far(lower_bound((da, sa), (db, sb), None)) {
+                    continue;
+                }
+                let middle = shape.distance(la.lerp(lb, 0.5)).0;
+                if far(lower_bound((da, sa), (db, sb), Some(middle))) {
                     continue;
                 }
                 shape_nearest(shape, la, lb)
@@ -178,15 +206,36 @@ pub fn predict_edge_contacts(
 
 /// A lower bound (m) on a convex distance along a link from its ends'
 /// distances `d` (m) and slopes `s` (m, the normal at the end dotted with
-/// the link, pointing from that end): the larger of the two tangent lines
-/// `d_a + t s_a` and `d_b + (1 − t) s_b`, at its lowest over `t ∈ [0, 1]`.
-fn tangent_bound((da, sa): (f32, f32), (db, sb): (f32, f32)) -> f32 {
-    let line = |t: f32| (da + t * sa).max(db + (1.0 - t) * sb);
-    // The lines cross where da + t sa = db + (1 − t) sb.
-    let cross = (db + sb - da) / (sa + sb);
-    let mut low = line(0.0).min(line(1.0));
-    if cross.is_finite() && (0.0..=1.0).contains(&cross) {
-        low = low.min(line(cross));
+/// the link, pointing from that end), and, given, its distance at the
+/// middle: over each half, the larger of the end's tangent line and the
+/// other half's secant extended, at its lowest. A convex function lies
+/// above both.
+fn lower_bound((da, sa): (f32, f32), (db, sb): (f32, f32), middle: Option<f32>) -> f32 {
+    // Lines as (value at t = 0, slope in t).
+    let tangent_a = (da, sa);
+    let tangent_b = (db + sb, -sb);
+    match middle {
+        None => lowest_of_two(tangent_a, tangent_b, (0.0, 1.0)),
+        Some(dm) => {
+            let secant_a = (da, 2.0 * (dm - da));
+            let secant_b = (2.0 * dm - db, 2.0 * (db - dm));
+            lowest_of_two(tangent_a, secant_b, (0.0, 0.5)).min(lowest_of_two(
+                tangent_b,
+                secant_a,
+                (0.5, 1.0),
+            ))
+        }
+    }
+}
+
+/// The lowest (m) over `t ∈ [lo, hi]` of the larger of two lines (each its
+/// value at `t = 0` and slope).
+fn lowest_of_two((c1, k1): (f32, f32), (c2, k2): (f32, f32), (lo, hi): (f32, f32)) -> f32 {
+    let upper = |t: f32| (c1 + k1 * t).max(c2 + k2 * t);
+    let mut low = upper(lo).min(upper(hi));
+    let cross = (c2 - c1) / (k1 - k2);
+    if cross.is_finite() && (lo..=hi).contains(&cross) {
+        low = low.min(upper(cross));
     }
     low
 }

@@ -256,3 +256,20 @@ fn a_link_through_a_table_top_comes_out_over_the_nearest_rim() {
         assert!((c.gap - want).abs() < 1e-3, "{} against {want}", c.gap);
     }
 }
+
+#[test]
+fn the_lower_bound_holds_for_a_convex_distance_and_tightens_with_the_middle() {
+    // f(t) = (t − 0.3)² over [0, 1]: its ends' slopes (in t) and middle.
+    let f = |t: f32| (t - 0.3) * (t - 0.3);
+    let (a, b) = ((f(0.0), -0.6), (f(1.0), -1.4));
+    let loose = lower_bound(a, b, None);
+    let tight = lower_bound(a, b, Some(f(0.5)));
+    // Below the least, 0 at t = 0.3, and tighter with the middle.
+    assert!(loose < tight - 0.05 && tight <= 1e-6, "{loose} {tight}");
+    // A symmetric chord, (t − 0.5)²: a quarter below its ends, bounded at a
+    // third (at half without the middle).
+    let f = |t: f32| (t - 0.5) * (t - 0.5);
+    let (a, b) = ((f(0.0), -1.0), (f(1.0), -1.0));
+    assert!((lower_bound(a, b, None) + 0.25).abs() < 1e-6);
+    assert!((lower_bound(a, b, Some(0.0)) + 0.25 / 3.0).abs() < 1e-6);
+}
