@@ -134,3 +134,52 @@ fn a_cloth_dragged_over_a_sharp_edge_slides_over_it() {
         assert!(end < 0.05, "{name}: {end}");
     }
 }
+
+#[test]
+fn the_tablecloth_examples_yank_takes_the_cloth_off_the_table() {
+    // The `tablecloth` example's scene and yank: a 31×31 cotton cloth,
+    // 1.5 m, 1 cm thick, on a round top (r 0.56 m, friction 0.35) on a
+    // pole; its near edge carried out and down at 7 m/s, 7 m/s along z,
+    // for 2 m, then let go.
+    let mut app = app();
+    app.world_mut()
+        .spawn((ClothCollider::plane(), Transform::default()));
+    app.world_mut().spawn((
+        ClothCollider::cylinder(0.56, 0.02).with_friction(0.35),
+        Transform::from_xyz(0.0, 0.76, 0.0),
+    ));
+    app.world_mut().spawn((
+        ClothCollider::cylinder(0.05, 0.37),
+        Transform::from_xyz(0.0, 0.37, 0.0),
+    ));
+    let n = 31;
+    let cloth = ClothBuilder::new(n, n)
+        .size(1.5, 1.5)
+        .material(ClothMaterial::COTTON)
+        .position(Vec3::new(0.0, 0.81, 0.0))
+        .build()
+        .unwrap();
+    let collision = ClothCollision {
+        thickness: 0.01,
+        ..default()
+    };
+    let cloth = app.world_mut().spawn((cloth, collision)).id();
+    settle(&mut app, cloth, 1.0);
+    let edge: Vec<u32> = ((n - 1) * n..n * n).collect();
+    let frames = (2.0f32 / 7.0 * 60.0).round() as usize;
+    let peak = pull(&mut app, cloth, &edge, Vec3::new(0.0, -2.1, 7.0), frames);
+    let (end, late) = settle(&mut app, cloth, 3.0);
+    let on_top = particles(&app, cloth)
+        .positions
+        .iter()
+        .filter(|p| Vec2::new(p.x, p.z).length() < 0.56 && p.y > 0.75)
+        .count();
+    eprintln!(
+        "{:.0} % in the yank, {:.1} % 3 s later (last second's most {:.1} %), {on_top} particles left on the table",
+        100.0 * peak,
+        100.0 * end,
+        100.0 * late
+    );
+    assert_eq!(on_top, 0, "the cloth stayed on the table");
+    assert!(end < 0.1 && late < 0.1, "{end} {late}");
+}

@@ -27,8 +27,18 @@ fn top_mesh() -> TriMesh {
     TriMesh::from_mesh(&mesh).unwrap()
 }
 
-/// Two particles, linked, at rest.
+/// The edge contacts of two linked particles at rest.
 fn edge_contacts(collider: &MovingCollider, x: [Vec3; 2], w: [f32; 2]) -> Vec<SolveContact> {
+    edge_contacts_moving(collider, x, [Vec3::ZERO; 2], w)
+}
+
+/// The edge contacts of two linked particles moving at `v` (m/s).
+fn edge_contacts_moving(
+    collider: &MovingCollider,
+    x: [Vec3; 2],
+    v: [Vec3; 2],
+    w: [f32; 2],
+) -> Vec<SolveContact> {
     let link = [Link {
         a: 0,
         b: 1,
@@ -38,12 +48,23 @@ fn edge_contacts(collider: &MovingCollider, x: [Vec3; 2], w: [f32; 2]) -> Vec<So
     predict_edge_contacts(
         collider,
         &[&link],
-        (&x, &[Vec3::ZERO; 2], &w),
+        (&x, &v, &w),
         (THICKNESS, DT),
         &mut Vec::new(),
         &mut out,
     );
     out
+}
+
+/// A collider that stays where it is.
+fn still(geometry: Geometry<'_>) -> MovingCollider<'_> {
+    MovingCollider {
+        geometry,
+        start: Isometry3d::IDENTITY,
+        end: Isometry3d::IDENTITY,
+        friction: 0.5,
+        restitution: 0.0,
+    }
 }
 
 /// A link from the table top, 2.5 cm in from the rim, to 5 cm out and
@@ -149,13 +170,7 @@ fn links_on_a_surface_or_clear_of_corners_list_nothing() {
     }
     // A 5 cm link resting over a 0.5 m ball sags 0.6 mm into the
     // thickness: less than a quarter of it.
-    let ball = MovingCollider {
-        geometry: Geometry::Shape(Shape::Sphere { radius: 0.5 }),
-        start: Isometry3d::IDENTITY,
-        end: Isometry3d::IDENTITY,
-        friction: 0.5,
-        restitution: 0.0,
-    };
+    let ball = still(Geometry::Shape(Shape::Sphere { radius: 0.5 }));
     let r = 0.5 + THICKNESS;
     let half = 0.025 / r;
     let x = [
@@ -183,35 +198,15 @@ fn links_on_a_surface_or_clear_of_corners_list_nothing() {
 fn a_link_arriving_at_a_corner_within_the_step_is_listed() {
     // Above the rim and falling onto it at 2 m/s: it reaches the corner
     // within the step.
-    let x = [Vec3::new(0.575, 0.02, 0.0), Vec3::new(0.625, 0.02, 0.0)];
-    let link = [Link {
-        a: 0,
-        b: 1,
-        rest_length: 0.05,
-    }];
-    let mut out = Vec::new();
+    let table = table(Geometry::Shape(top()));
     let v = [Vec3::new(0.0, -2.0, 0.0); 2];
-    predict_edge_contacts(
-        &table(Geometry::Shape(top())),
-        &[&link],
-        (&x, &v, &[1.0, 1.0]),
-        (THICKNESS, DT),
-        &mut Vec::new(),
-        &mut out,
-    );
     // Its ends are level: the nearest point is the whole middle of the
     // link over the top, not nearer than the inner end. Tilt the outer end
     // down and it is.
-    assert_eq!(out, []);
-    let x = [Vec3::new(0.575, 0.02, 0.0), Vec3::new(0.62, -0.005, 0.0)];
-    predict_edge_contacts(
-        &table(Geometry::Shape(top())),
-        &[&link],
-        (&x, &v, &[1.0, 1.0]),
-        (THICKNESS, DT),
-        &mut Vec::new(),
-        &mut out,
-    );
+    let level = [Vec3::new(0.575, 0.02, 0.0), Vec3::new(0.625, 0.02, 0.0)];
+    assert_eq!(edge_contacts_moving(&table, level, v, [1.0, 1.0]), []);
+    let tilted = [Vec3::new(0.575, 0.02, 0.0), Vec3::new(0.62, -0.005, 0.0)];
+    let out = edge_contacts_moving(&table, tilted, v, [1.0, 1.0]);
     assert_eq!(out.len(), 2, "{out:?}");
     assert!(out.iter().all(|c| c.gap > 0.0));
 }
@@ -237,16 +232,10 @@ fn a_link_through_a_table_top_comes_out_over_the_nearest_rim() {
     // A round top (r 0.5 m, 4 cm thick, its middle at y = 0): one end
     // under it, one over it, 8 cm in from the rim. Out through a face, one
     // end would go through the top; over the rim, neither does.
-    let top = MovingCollider {
-        geometry: Geometry::Shape(Shape::Cylinder {
-            radius: 0.5,
-            half_height: 0.02,
-        }),
-        start: Isometry3d::IDENTITY,
-        end: Isometry3d::IDENTITY,
-        friction: 0.5,
-        restitution: 0.0,
-    };
+    let top = still(Geometry::Shape(Shape::Cylinder {
+        radius: 0.5,
+        half_height: 0.02,
+    }));
     let x = [Vec3::new(0.0, -0.025, -0.42), Vec3::new(0.0, 0.025, -0.42)];
     let out = edge_contacts(&top, x, [1.0, 1.0]);
     assert_eq!(out.len(), 2, "{out:?}");
