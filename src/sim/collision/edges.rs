@@ -5,7 +5,8 @@
 //! Particle contacts ([`predict`](super::predict)) hold each particle on
 //! the surface; a straight link between two of them can still pass through
 //! a corner between them. Each Type 1 link whose nearest point to a
-//! collider lies between its ends, nearer than either end, within
+//! collider lies between its ends, nearer than both ends by [`EDGE_DIP`]
+//! of the thickness, within
 //! [`EDGE_THICKNESS`] of the contact thickness (or reaching it within the
 //! step), is listed as an *edge contact* on each of its free particles:
 //! the surface's outward normal at the link's nearest point, and that
@@ -19,7 +20,9 @@
 //! would pin a particle on the table's side against the pull of a link
 //! over the rim (a tablecloth yanked off a round table then stays caught
 //! on the rim, stretched several times over). The particles' own contacts
-//! with the faces keep their friction. A link over a large round collider
+//! with the faces keep their friction, except at a corner a link of theirs
+//! wraps ([`keep_nearest`](super::predict::keep_nearest)). A link over a
+//! large round collider
 //! sags into the thickness by its sagitta (`L²/8R`: 0.6 mm for a 5 cm link
 //! over a 0.5 m ball) and lists nothing.
 //!
@@ -27,7 +30,8 @@
 //! is convex along a segment, and a minimum between the ends needs both
 //! ends' normals to face against the link, which culls a cloth lying on a
 //! surface at the cost of two dot products a link. Triangle meshes are
-//! tested against the triangles near the link.
+//! tested against the triangles near the link. Colliders with a free body
+//! behind them get no edge contacts.
 
 use bevy::math::{Affine3A, Vec3};
 
