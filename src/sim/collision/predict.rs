@@ -150,29 +150,27 @@ pub fn push_out_held(
             continue;
         }
         let (p0, p1) = (to0.transform_point3(start[p]), to1.transform_point3(x[p]));
-        // The first point of the path inside the collider itself.
-        let end = match collider.geometry {
-            Geometry::Shape(ref shape) => Some(shape.distance(p1)),
-            Geometry::Mesh(_) => None,
-        };
         let entry = match collider.geometry {
-            // Just inside at the end (a hair past the plane it was held on,
-            // or carried along the surface into a face it is held off): out
-            // by the shortest way. Back along its path, a particle carried
-            // along a surface would lose the step's motion there.
-            Geometry::Shape(_)
-                if let Some((d, n)) = end
-                    && d < 0.0
-                    && d > -thickness =>
-            {
-                Some((p1 - d * n, n))
+            Geometry::Shape(ref shape) => {
+                let (d, n) = shape.distance(p1);
+                if d < 0.0 && d > -thickness {
+                    // Just inside at the end (a hair past the plane it was
+                    // held on, or carried along the surface into a face it
+                    // is held off): out by the shortest way. Back along its
+                    // path, a particle carried along a surface would lose
+                    // the step's motion there.
+                    Some((p1 - d * n, n))
+                } else {
+                    // The first point of the path inside the collider.
+                    sweep(shape, p0, p1, 0.0).map(|t| {
+                        // On the surface (a path that starts inside starts
+                        // there).
+                        let q = p0.lerp(p1, t);
+                        let (d, n) = shape.distance(q);
+                        (q - d.min(0.0) * n, n)
+                    })
+                }
             }
-            Geometry::Shape(ref shape) => sweep(shape, p0, p1, 0.0).map(|t| {
-                // On the surface (a path that starts inside starts there).
-                let q = p0.lerp(p1, t);
-                let (d, n) = shape.distance(q);
-                (q - d.min(0.0) * n, n)
-            }),
             Geometry::Mesh(mesh) => mesh_crossing(mesh, p0, p1),
         };
         let Some((point, normal)) = entry else {
