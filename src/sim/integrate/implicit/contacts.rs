@@ -216,6 +216,18 @@ pub struct ContactBuffers {
     /// The impulse (N·s) each held contact gave its particle in the last
     /// solve, with the contact's index in `list`.
     impulses: Vec<(u32, Vec3, Vec3)>,
+    /// Scratch of [`finish`](Self::finish): the velocity changes (m/s) its
+    /// stops gave particles after the solve.
+    stops: Vec<(u32, Vec3)>,
+}
+
+/// The velocity change (m/s) `stops` gave particle `p`.
+fn stopped(stops: &[(u32, Vec3)], p: usize) -> Vec3 {
+    stops
+        .iter()
+        .filter(|s| s.0 as usize == p)
+        .map(|s| s.1)
+        .sum()
 }
 
 impl ContactBuffers {
@@ -526,6 +538,7 @@ impl ContactBuffers {
         (gamma, h): (f32, f32),
     ) {
         let alpha = self.factors.0;
+        self.stops.clear();
         self.changes.clear();
         self.changes
             .extend((0..self.bodies.len() as u32).map(|b| coupling.change(b)));
@@ -537,7 +550,15 @@ impl ContactBuffers {
                 .body
                 .map_or(Vec3::ZERO, |(body, r)| coupling.surface_change(body, r));
             let force = held.force(&c, dv(p) - moved, (gamma, h));
-            let relative = v[p] - c.velocity - moved;
+            // A body's friction is what the solve gave it: a particle that
+            // another contact stopped after the solve (squeezed between a
+            // table and a plate) does not drag the body by its holding
+            // damping's stiffness times that stop.
+            let solved = match held.body {
+                Some(_) => v[p] - stopped(&self.stops, p),
+                None => v[p],
+            };
+            let relative = solved - c.velocity - moved;
             let mut along = relative - relative.dot(c.normal) * c.normal;
             // The spring's impulse `α λ n` and the friction's: the damping's
             // on the final sliding velocity, or Coulomb's.
@@ -566,6 +587,7 @@ impl ContactBuffers {
                 impulse += held.mass * change;
                 v[p] += change;
                 x[p] += gamma * change;
+                self.stops.push((p as u32, change));
                 along = end;
             }
             self.impulses.push((held.index as u32, impulse, held.start));

@@ -434,3 +434,54 @@ fn a_particle_sliding_one_way_and_pulled_the_other_slides_the_other_way() {
         v.x
     );
 }
+
+#[test]
+fn a_body_is_handed_the_impulse_the_solve_gave_it_when_a_squeezed_particle_stops() {
+    // A particle sliding along -X on the floor (μ 0.5) under a 0.2 kg body
+    // (μ 0.5) pressed a hair into it, then pulled along +X with 0.4 N: its sliding on
+    // the floor reverses, and the floor's friction stops it after the
+    // solve. The body's impulse is still the momentum the solve gave it,
+    // not its holding friction's stiffness times that stop.
+    const BODY: f32 = 0.2;
+    let gravity = Vec3::new(0.0, -9.81, 0.0);
+    let (given, gained) = one_particle(Vec3::ZERO, |dynamics| {
+        let (mut x, mut v) = ([Vec3::ZERO], [Vec3::NEG_X * 0.1]);
+        let mut buffers = ImplicitBuffers::default();
+        let mut step = |dynamics: &Dynamics, buffers: &mut ImplicitBuffers| {
+            buffers.contacts.list.clear();
+            buffers.contacts.bodies.clear();
+            buffers
+                .contacts
+                .list
+                .push(touching(0, Vec3::Y, 0.0, 0.5, NO_BODY));
+            buffers
+                .contacts
+                .list
+                .push(touching(0, Vec3::NEG_Y, -3e-4, 0.5, 0));
+            let mut body = SolveBody::new(BODY, Vec3::Y * 0.05);
+            body.acceleration = gravity;
+            buffers.contacts.bodies.push(body);
+            backward_euler(dynamics, &mut x, &mut v, H, buffers);
+        };
+        step(dynamics, &mut buffers);
+        assert_eq!(buffers.contacts.hold(0), Hold::Slide);
+        let external = [Vec3::X * 0.4];
+        let pulled = Dynamics {
+            external: &external,
+            ..*dynamics
+        };
+        step(&pulled, &mut buffers);
+        let given: Vec3 = -buffers
+            .contacts
+            .impulses()
+            .filter(|(c, ..)| c.body == 0)
+            .map(|(_, j, _)| j)
+            .sum::<Vec3>();
+        let [linear, _] = buffers.contacts.body_change(0);
+        (given, BODY * (linear - gravity * H))
+    });
+    assert!(
+        (given - gained).length() <= 0.01 * gained.length() + 1e-4,
+        "the body is handed {given} N·s, the solve gave it {gained}"
+    );
+}
