@@ -329,6 +329,34 @@ mod tests {
         assert_eq!(kept, [(1, 0.1), (3, -0.1)]);
     }
 
+    /// A plate, r 0.11 m and 2 cm tall, centred on the origin.
+    const PLATE: Shape = Shape::Cylinder {
+        radius: 0.11,
+        half_height: 0.01,
+    };
+
+    /// The contacts with [`PLATE`], still, as a free body or fixed (contact
+    /// thickness 5 mm, a 1/60 s step), of one particle at `x` (m) moving at
+    /// `v` (m/s).
+    fn near_plate(x: Vec3, v: Vec3, free: bool) -> Vec<SolveContact> {
+        let plate = MovingCollider {
+            geometry: Geometry::Shape(PLATE),
+            start: Isometry3d::IDENTITY,
+            end: Isometry3d::IDENTITY,
+            friction: 0.5,
+            restitution: 0.0,
+        };
+        let mut out = Vec::new();
+        predict_contacts(
+            &plate,
+            (&[x], &[v], &[1.0]),
+            (0.005, 1.0 / 60.0),
+            free,
+            &mut out,
+        );
+        out
+    }
+
     #[test]
     fn a_particle_passing_under_a_bodys_rim_is_held_on_its_base() {
         // A plate (r 0.11 m, 2 cm tall) as a free body; a particle 1 cm
@@ -336,39 +364,15 @@ mod tests {
         // (5 mm below it), moving towards it at 1 m/s. The nearest point
         // is the rim's edge, whose plane faces it half sideways; its path
         // runs under the base, so it is held on the base's plane.
-        let plate = MovingCollider {
-            geometry: Geometry::Shape(Shape::Cylinder {
-                radius: 0.11,
-                half_height: 0.01,
-            }),
-            start: Isometry3d::IDENTITY,
-            end: Isometry3d::IDENTITY,
-            friction: 0.5,
-            restitution: 0.0,
-        };
         let x = [Vec3::new(0.0, -0.015, -0.12)];
         let v = [Vec3::Z];
-        let mut out = Vec::new();
-        predict_contacts(
-            &plate,
-            (&x, &v, &[1.0]),
-            (0.005, 1.0 / 60.0),
-            true,
-            &mut out,
-        );
+        let out = near_plate(x[0], v[0], true);
         assert_eq!(out.len(), 1);
         assert!(out[0].normal.y < -0.99, "{}", out[0].normal);
         assert!(out[0].gap.abs() < 1e-3, "{}", out[0].gap);
         // Fixed, it keeps the edge's plane (the sweep and push-out handle
         // fixed surfaces).
-        out.clear();
-        predict_contacts(
-            &plate,
-            (&x, &v, &[1.0]),
-            (0.005, 1.0 / 60.0),
-            false,
-            &mut out,
-        );
+        let out = near_plate(x[0], v[0], false);
         assert!(out.iter().all(|c| c.normal.z < -0.1), "{out:?}");
     }
 
@@ -380,31 +384,10 @@ mod tests {
         // faces a quarter turn on: the particle lies behind that plane, but
         // it is outside the thickness, and its contact says so. Held as
         // 5 mm inside, it would be pushed off and the plate the other way.
-        let plate = MovingCollider {
-            geometry: Geometry::Shape(Shape::Cylinder {
-                radius: 0.11,
-                half_height: 0.01,
-            }),
-            start: Isometry3d::IDENTITY,
-            end: Isometry3d::IDENTITY,
-            friction: 0.5,
-            restitution: 0.0,
-        };
         let x = [Vec3::new(0.116, -0.0147, 0.0)];
         let v = [Vec3::new(0.3, 0.0, 4.0)];
-        let (distance, _) = Shape::Cylinder {
-            radius: 0.11,
-            half_height: 0.01,
-        }
-        .distance(x[0]);
-        let mut out = Vec::new();
-        predict_contacts(
-            &plate,
-            (&x, &v, &[1.0]),
-            (0.005, 1.0 / 60.0),
-            true,
-            &mut out,
-        );
+        let (distance, _) = PLATE.distance(x[0]);
+        let out = near_plate(x[0], v[0], true);
         assert_eq!(out.len(), 1);
         assert!(
             out[0].gap >= distance - 0.005 - 1e-6,
