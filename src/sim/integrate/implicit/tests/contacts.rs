@@ -438,10 +438,10 @@ fn a_particle_sliding_one_way_and_pulled_the_other_slides_the_other_way() {
 #[test]
 fn a_body_is_handed_the_impulse_the_solve_gave_it_when_a_squeezed_particle_stops() {
     // A particle sliding along -X on the floor (μ 0.5) under a 0.2 kg body
-    // (μ 0.5) pressed a hair into it, then pulled along +X with 0.4 N: its sliding on
-    // the floor reverses, and the floor's friction stops it after the
-    // solve. The body's impulse is still the momentum the solve gave it,
-    // not its holding friction's stiffness times that stop.
+    // (μ 0.5) pressed a hair into it, then pulled along +X with 0.4 N: its
+    // sliding on the floor reverses, and the floor's friction stops it
+    // after the solve. The body's impulse is still the momentum the solve
+    // gave it, not its holding friction's stiffness times that stop.
     const BODY: f32 = 0.2;
     let gravity = Vec3::new(0.0, -9.81, 0.0);
     let (given, gained) = one_particle(Vec3::ZERO, |dynamics| {
