@@ -321,6 +321,8 @@ impl ContactHook for SceneContacts<'_> {
         if sub.from == 0.0 {
             self.feedback.carried.clear();
         }
+        // The links' extent, once for every fixed collider of the step.
+        let mut extent = None;
         for &c in self.near {
             let collider = &self.scene.colliders[c];
             let moving = self.feedback.moving(collider, c, sub);
@@ -329,11 +331,13 @@ impl ContactHook for SceneContacts<'_> {
             let thickness = self.thickness + collider.margin;
             predict::predict_contacts(&moving, (x, v, w), (thickness, sub.dt), free, out);
             if !free {
+                let extent = *extent.get_or_insert_with(|| edges::link_extent(&self.links, x, v));
                 edges::predict_edge_contacts(
                     &moving,
                     &self.links,
                     (x, v, w),
                     (thickness, sub.dt),
+                    extent,
                     self.edge_points,
                     out,
                 );

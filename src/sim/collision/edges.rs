@@ -67,12 +67,29 @@ const MIN_SHARE: f32 = 0.25;
 /// bracket shrinks to 0.618²⁴ ≈ 10⁻⁵ of the link.
 const SECTIONS: usize = 24;
 
+/// The golden section's ratio, `(√5 − 1)/2`.
+const R: f32 = 0.618_034;
+
+/// The longest of the `links` (m) between particles at `x` (m), and the
+/// fastest particle's speed (m/s): how far a link's point can lie from its
+/// ends, and how far it can move within a step, for
+/// [`predict_edge_contacts`]. The same for every collider of a step.
+pub fn link_extent(links: &[&[Link]], x: &[Vec3], v: &[Vec3]) -> (f32, f32) {
+    let longest = links
+        .iter()
+        .flat_map(|l| l.iter())
+        .map(|l| x[l.a as usize].distance(x[l.b as usize]))
+        .fold(0.0f32, f32::max);
+    let fastest = v.iter().map(|v| v.length()).fold(0.0f32, f32::max);
+    (longest, fastest)
+}
+
 /// Adds to `out` the edge contacts of the Type 1 `links` with `collider`
 /// (its poses at the start and end of a step of `dt` s), for particles at
 /// `x` (m) moving at `v` (m/s) with inverse masses `w` (1/kg, 0 pinned), at
-/// a contact thickness of `thickness` m. `near` is scratch: each particle's
-/// local position, distance (m), normal, and the collider's surface speed
-/// there (m/s).
+/// a contact thickness of `thickness` m; `extent` is [`link_extent`] of
+/// them. `near` is scratch: each particle's local position, distance (m),
+/// normal, and the collider's surface speed there (m/s).
 ///
 /// Each contact is marked [`SolveContact::edge`]; its `source` is 0.
 pub fn predict_edge_contacts(
@@ -80,19 +97,14 @@ pub fn predict_edge_contacts(
     links: &[&[Link]],
     (x, v, w): (&[Vec3], &[Vec3], &[f32]),
     (thickness, dt): (f32, f32),
+    (longest, fastest): (f32, f32),
     near: &mut Vec<(Vec3, f32, Vec3, f32)>,
     out: &mut Vec<SolveContact>,
 ) {
     let edge = EDGE_THICKNESS * thickness;
     let to_local = Affine3A::from(collider.start.inverse());
     let (start, end) = (Affine3A::from(collider.start), Affine3A::from(collider.end));
-    // A link this long reaches at most this far from its ends.
-    let longest = links
-        .iter()
-        .flat_map(|l| l.iter())
-        .map(|l| x[l.a as usize].distance(x[l.b as usize]))
-        .fold(0.0f32, f32::max);
-    let fastest = v.iter().map(|v| v.length()).fold(0.0f32, f32::max);
+    // A link reaches at most `longest` from its ends.
     let cap = thickness + longest + 2.0 * fastest * dt + TOUCH;
     // Only the particles within reach of the collider are measured; the
     // others are at an infinite distance. A plane's distance is linear
@@ -250,7 +262,6 @@ fn lowest_of_two((c1, k1): (f32, f32), (c2, k2): (f32, f32), (lo, hi): (f32, f32
 /// golden section finds its minimum. A segment that passes inside comes
 /// out by [`line_exit`].
 fn shape_nearest(shape: &Shape, a: Vec3, b: Vec3) -> Option<(f32, f32, Vec3)> {
-    const R: f32 = 0.618_034;
     let at = |t: f32| shape.distance(a.lerp(b, t)).0;
     let (mut lo, mut hi) = (0.0f32, 1.0f32);
     let (mut t1, mut t2) = (hi - R * (hi - lo), lo + R * (hi - lo));
@@ -308,7 +319,6 @@ fn line_exit(shape: &Shape, q: Vec3, b: Vec3) -> Option<(f32, Vec3)> {
         .map(|k| (k as f32 * step, depth(k as f32 * step)))
         .min_by(|x, y| x.1.total_cmp(&y.1))?;
     // Refine within a step either side by golden section.
-    const R: f32 = 0.618_034;
     let (mut lo, mut hi) = (best - step, best + step);
     for _ in 0..SECTIONS / 2 {
         let (m1, m2) = (hi - R * (hi - lo), lo + R * (hi - lo));

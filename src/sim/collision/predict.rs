@@ -364,15 +364,14 @@ mod tests {
         // (5 mm below it), moving towards it at 1 m/s. The nearest point
         // is the rim's edge, whose plane faces it half sideways; its path
         // runs under the base, so it is held on the base's plane.
-        let x = [Vec3::new(0.0, -0.015, -0.12)];
-        let v = [Vec3::Z];
-        let out = near_plate(x[0], v[0], true);
+        let (x, v) = (Vec3::new(0.0, -0.015, -0.12), Vec3::Z);
+        let out = near_plate(x, v, true);
         assert_eq!(out.len(), 1);
         assert!(out[0].normal.y < -0.99, "{}", out[0].normal);
         assert!(out[0].gap.abs() < 1e-3, "{}", out[0].gap);
         // Fixed, it keeps the edge's plane (the sweep and push-out handle
         // fixed surfaces).
-        let out = near_plate(x[0], v[0], false);
+        let out = near_plate(x, v, false);
         assert!(out.iter().all(|c| c.normal.z < -0.1), "{out:?}");
     }
 
@@ -384,10 +383,9 @@ mod tests {
         // faces a quarter turn on: the particle lies behind that plane, but
         // it is outside the thickness, and its contact says so. Held as
         // 5 mm inside, it would be pushed off and the plate the other way.
-        let x = [Vec3::new(0.116, -0.0147, 0.0)];
-        let v = [Vec3::new(0.3, 0.0, 4.0)];
-        let (distance, _) = PLATE.distance(x[0]);
-        let out = near_plate(x[0], v[0], true);
+        let (x, v) = (Vec3::new(0.116, -0.0147, 0.0), Vec3::new(0.3, 0.0, 4.0));
+        let (distance, _) = PLATE.distance(x);
+        let out = near_plate(x, v, true);
         assert_eq!(out.len(), 1);
         assert!(
             out[0].gap >= distance - 0.005 - 1e-6,

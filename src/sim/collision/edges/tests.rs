@@ -50,6 +50,7 @@ fn edge_contacts_moving(
         &[&link],
         (&x, &v, &w),
         (THICKNESS, DT),
+        link_extent(&[&link], &x, &v),
         &mut Vec::new(),
         &mut out,
     );
