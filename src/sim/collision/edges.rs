@@ -24,7 +24,11 @@
 //! wraps ([`keep_nearest`](super::predict::keep_nearest)). A link over a
 //! large round collider
 //! sags into the thickness by its sagitta (`L²/8R`: 0.6 mm for a 5 cm link
-//! over a 0.5 m ball) and lists nothing.
+//! over a 0.5 m ball) and lists nothing. A link with a pinned end inside
+//! the collider (a grab dragged into a table), or farther inside than
+//! twice its length and its ends' travel in a step, lists nothing either:
+//! no move of its ends within a step takes it out, and the try would
+//! fling them.
 //!
 //! Links are tested against analytic shapes exactly: their signed distance
 //! is convex along a segment, and a minimum between the ends needs both
@@ -142,7 +146,10 @@ pub fn predict_edge_contacts(
             continue;
         }
         let (wa, wb) = (w[a], w[b]);
-        if wa == 0.0 && wb == 0.0 {
+        // A pinned end inside the shape (a grab dragged into a table) keeps
+        // its link inside whatever the free end does.
+        let pinned_inside = |w: f32, d: f32| w == 0.0 && d < 0.0;
+        if wa == 0.0 && wb == 0.0 || pinned_inside(wa, da) || pinned_inside(wb, db) {
             continue;
         }
         // A nearest point between the ends needs both ends' normals to face
@@ -187,6 +194,13 @@ pub fn predict_edge_contacts(
         let moving = v[a].lerp(v[b], t);
         let approach = gap + dt * (moving - velocity).dot(normal);
         if gap > TOUCH && approach >= 0.0 {
+            continue;
+        }
+        // A link farther in than twice its length and its ends' travel in
+        // a step did not cut a rim in a step or two: something dragged it
+        // there (a grab through a table top). Out over the rim, its ends
+        // would be flung; their own contacts bring them out instead.
+        if -gap > 2.0 * ab.length() + (v[a].length() + v[b].length()) * dt {
             continue;
         }
         // Each free end moves the link's point by its share: with both

@@ -132,7 +132,9 @@ pub(super) fn mesh_distance(mesh: &TriMesh, p: Vec3, reach: f32) -> Option<(f32,
 /// with a spring that yields to very large forces (a violent yank over an
 /// edge), and a fast collider can carry its surface past that plane; this
 /// catches both, along the particle's path (`start` → `x`, m), so it cannot
-/// pass through a thin collider. A particle that ends less than the
+/// pass through a thin collider, and sends it on along the surface by the
+/// rest of its path (round a corner, over a rim), so that its travel
+/// matches the velocity it keeps. A particle that ends less than the
 /// thickness inside a shape comes out the shortest way instead (it was
 /// held on, or carried along, its surface). Their friction is the solve's:
 /// nothing else changes. Returns how many were pushed.
@@ -168,10 +170,18 @@ pub fn push_out_held(
                     // The first point of the path inside the collider.
                     sweep(shape, p0, p1, 0.0).map(|t| {
                         // On the surface (a path that starts inside starts
-                        // there).
+                        // there), and on along it by the rest of the path
+                        // (round a corner, out again the shortest way):
+                        // stopped where it met the surface, a particle
+                        // drawn round an edge would keep the speed the
+                        // step gave it and not its travel.
                         let q = p0.lerp(p1, t);
                         let (d, n) = shape.distance(q);
-                        (q - d.min(0.0) * n, n)
+                        let q = q - d.min(0.0) * n;
+                        let rest = p1 - q;
+                        let q = q + rest - rest.dot(n) * n;
+                        let (d, n) = shape.distance(q);
+                        (q - d.min(thickness) * n, n)
                     })
                 }
             }
@@ -466,7 +476,8 @@ mod tests {
     fn a_held_particle_just_inside_comes_out_the_shortest_way_and_a_deep_one_along_its_path() {
         // A table top 4 cm thick, its top at y = 0. One particle carried
         // 10 cm along under it ends 1 mm inside its bottom; one that went
-        // 3 cm into its top comes back out where it entered.
+        // 3 cm into its top comes back out, 1 cm on from where it entered
+        // as it was going along.
         let table = MovingCollider {
             geometry: Geometry::Shape(Shape::Cuboid {
                 half_extents: Vec3::new(0.6, 0.02, 0.6),
@@ -489,9 +500,45 @@ mod tests {
         );
         assert_eq!(v[0], Vec3::new(6.0, 0.0, 0.0));
         assert!(
-            (x[1].y - 0.005).abs() < 1e-5 && (x[1].x - 0.2).abs() < 0.01,
+            x[1].distance(Vec3::new(0.21, 0.005, 0.0)) < 1e-5,
             "{}",
             x[1]
         );
+        assert_eq!(v[1], Vec3::new(0.6, 0.0, 0.0));
+    }
+
+    #[test]
+    fn a_held_particle_drawn_round_a_corner_keeps_its_travel() {
+        // A particle on a table's side face, 5 cm under its top, drawn up
+        // and in at (-3, 6) m/s: its path cuts the corner. It comes out
+        // on the face and goes on up it by the rest of its path, over the
+        // rim, rather than stopping where it met the face.
+        let table = MovingCollider {
+            geometry: Geometry::Shape(Shape::Cuboid {
+                half_extents: Vec3::splat(0.5),
+            }),
+            start: Isometry3d::IDENTITY,
+            end: Isometry3d::IDENTITY,
+            friction: 0.5,
+            restitution: 0.0,
+        };
+        let (h, thickness) = (1.0 / 60.0, 0.005);
+        let start = [Vec3::new(0.5 + thickness, 0.45, 0.0)];
+        let mut v = [Vec3::new(-3.0, 6.0, 0.0)];
+        let mut x = [start[0] + h * v[0]];
+        let pushed = push_out_held(
+            &table,
+            &[Hold::Slide],
+            (&start, &mut x, &mut v),
+            thickness,
+            h,
+        );
+        assert_eq!(pushed, 1);
+        assert!(
+            x[0].distance(Vec3::new(0.5, 0.55, 0.0)) < 1e-5,
+            "it ends at {}, over the rim at [0.5, 0.55, 0]",
+            x[0]
+        );
+        assert_eq!(v[0], Vec3::new(-3.0, 6.0, 0.0));
     }
 }

@@ -263,3 +263,38 @@ fn the_lower_bound_holds_for_a_convex_distance_and_tightens_with_the_middle() {
     assert!((lower_bound(a, b, None) + 0.25).abs() < 1e-6);
     assert!((lower_bound(a, b, Some(0.0)) + 0.25 / 3.0).abs() < 1e-6);
 }
+
+#[test]
+fn a_link_whose_pinned_end_is_dragged_into_a_table_is_not_held() {
+    // A grab dragged 3 cm down into the table top, 30 cm in from its rim;
+    // its link runs up to a free particle lying on the top. No move of
+    // the free end takes the link out: the grab holds it in.
+    let x = [Vec3::new(0.3, -0.03, 0.0), Vec3::new(0.25, THICKNESS, 0.0)];
+    let out = edge_contacts(&table(Geometry::Shape(top())), x, [0.0, 1.0]);
+    assert_eq!(out, []);
+    let out = edge_contacts(&table(Geometry::Shape(top())), [x[1], x[0]], [1.0, 0.0]);
+    assert_eq!(out, []);
+}
+#[test]
+fn a_link_deeper_in_a_table_than_its_length_is_not_held() {
+    // A 5 cm link through the middle of a table top 40 cm wide, one end
+    // above it and one under it: out over the nearest rim is 20 cm, four
+    // times its length, and its ends' own contacts bring them out. Near
+    // the rim the same link comes out over it.
+    let slab = Shape::Cuboid {
+        half_extents: Vec3::new(0.2, 0.02, 0.6),
+    };
+    let through = |x: f32| {
+        [
+            Vec3::new(x, THICKNESS, 0.0),
+            Vec3::new(x + 0.01, -0.045, 0.0),
+        ]
+    };
+    assert_eq!(
+        edge_contacts(&table(Geometry::Shape(slab)), through(0.0), [1.0, 1.0]),
+        []
+    );
+    let near = edge_contacts(&table(Geometry::Shape(slab)), through(0.185), [1.0, 1.0]);
+    assert_eq!(near.len(), 2, "{near:?}");
+    assert!(near.iter().all(|c| c.normal.x > 0.9), "{near:?}");
+}
