@@ -44,6 +44,14 @@ fn settle(app: &mut App, cloth: Entity, seconds: f32) -> (f32, f32) {
     )
 }
 
+/// Spawns `cloth`, with `settings` if given.
+fn spawn(app: &mut App, cloth: ClothBundle, settings: Option<ClothSettings>) -> Entity {
+    match settings {
+        Some(s) => app.world_mut().spawn((cloth, s)).id(),
+        None => app.world_mut().spawn(cloth).id(),
+    }
+}
+
 fn settings() -> Vec<(&'static str, Option<ClothSettings>)> {
     let mut all = vec![("defaults", None)];
     for i in [Integrator::BackwardEuler, Integrator::Bdf2] {
@@ -73,10 +81,7 @@ fn a_tablecloth_yanked_off_a_round_table_at_50_m_s_comes_off_or_drapes() {
             .position(Vec3::new(0.0, 0.81, 0.0))
             .build()
             .unwrap();
-        let cloth = match settings {
-            Some(s) => app.world_mut().spawn((cloth, s)).id(),
-            None => app.world_mut().spawn(cloth).id(),
-        };
+        let cloth = spawn(&mut app, cloth, settings);
         let (_, draped) = settle(&mut app, cloth, 1.0);
         let edge: Vec<u32> = ((n - 1) * n..n * n).collect();
         let peak = pull(&mut app, cloth, &edge, Vec3::Z * 50.0, 6);
@@ -110,10 +115,7 @@ fn a_cloth_dragged_over_a_sharp_edge_slides_over_it() {
             .position(Vec3::new(0.0, 0.79, 0.1))
             .build()
             .unwrap();
-        let cloth = match settings {
-            Some(s) => app.world_mut().spawn((cloth, s)).id(),
-            None => app.world_mut().spawn(cloth).id(),
-        };
+        let cloth = spawn(&mut app, cloth, settings);
         settle(&mut app, cloth, 1.0);
         let far = |app: &App| particles(app, cloth).positions[(n / 2) as usize].z;
         let start = far(&app);
@@ -201,10 +203,7 @@ fn a_cloth_end_dragged_into_a_table_top_is_not_flung() {
             .position(Vec3::new(0.0, 0.79, 0.0))
             .build()
             .unwrap();
-        let cloth = match settings {
-            Some(s) => app.world_mut().spawn((cloth, s)).id(),
-            None => app.world_mut().spawn(cloth).id(),
-        };
+        let cloth = spawn(&mut app, cloth, settings);
         settle(&mut app, cloth, 1.0);
         let end: Vec<u32> = ((rows - 1) * columns..rows * columns).collect();
         grab_where_they_are(&mut app, cloth, &end);

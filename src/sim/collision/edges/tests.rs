@@ -275,8 +275,9 @@ fn a_link_whose_pinned_end_is_dragged_into_a_table_is_not_held() {
     let out = edge_contacts(&table(Geometry::Shape(top())), [x[1], x[0]], [1.0, 0.0]);
     assert_eq!(out, []);
 }
+
 #[test]
-fn a_link_deeper_in_a_table_than_its_length_is_not_held() {
+fn a_link_farther_inside_a_table_than_twice_its_length_is_not_held() {
     // A 5 cm link through the middle of a table top 40 cm wide, one end
     // above it and one under it: out over the nearest rim is 20 cm, four
     // times its length, and its ends' own contacts bring them out. Near
