@@ -345,17 +345,22 @@ mod tests {
         half_height: 0.01,
     };
 
-    /// The contacts with [`PLATE`], still, as a free body or fixed (contact
-    /// thickness 5 mm, a 1/60 s step), of one particle at `x` (m) moving at
-    /// `v` (m/s).
-    fn near_plate(x: Vec3, v: Vec3, free: bool) -> Vec<SolveContact> {
-        let plate = MovingCollider {
-            geometry: Geometry::Shape(PLATE),
+    /// `shape` at the origin, staying there (friction 0.5).
+    fn still(shape: Shape) -> MovingCollider<'static> {
+        MovingCollider {
+            geometry: Geometry::Shape(shape),
             start: Isometry3d::IDENTITY,
             end: Isometry3d::IDENTITY,
             friction: 0.5,
             restitution: 0.0,
-        };
+        }
+    }
+
+    /// The contacts with [`PLATE`], still, as a free body or fixed (contact
+    /// thickness 5 mm, a 1/60 s step), of one particle at `x` (m) moving at
+    /// `v` (m/s).
+    fn near_plate(x: Vec3, v: Vec3, free: bool) -> Vec<SolveContact> {
+        let plate = still(PLATE);
         let mut out = Vec::new();
         predict_contacts(
             &plate,
@@ -513,15 +518,9 @@ mod tests {
         // and in at (-3, 6) m/s: its path cuts the corner. It comes out
         // on the face and goes on up it by the rest of its path, over the
         // rim, rather than stopping where it met the face.
-        let table = MovingCollider {
-            geometry: Geometry::Shape(Shape::Cuboid {
-                half_extents: Vec3::splat(0.5),
-            }),
-            start: Isometry3d::IDENTITY,
-            end: Isometry3d::IDENTITY,
-            friction: 0.5,
-            restitution: 0.0,
-        };
+        let table = still(Shape::Cuboid {
+            half_extents: Vec3::splat(0.5),
+        });
         let (h, thickness) = (1.0 / 60.0, 0.005);
         let start = [Vec3::new(0.5 + thickness, 0.45, 0.0)];
         let mut v = [Vec3::new(-3.0, 6.0, 0.0)];
