@@ -8,14 +8,17 @@
 //! terms on its diagonal block, both implicit, so both hold at any step:
 //!
 //! - **Normal**: a stiff spring `k n nᵀ`, `k = κ m/γ²` (`κ` =
-//!   [`KAPPA`], `m` the particle's mass, or against a free body its share
-//!   of the body's mass up to [`BODY_STIFFENING`] times that, `γ` the
-//!   step's velocity-to-position factor, `h` for backward Euler), whose rest is the contact
-//!   thickness: the solve keeps the particle on the surface to within
-//!   `1/(1 + κ)` of its motion into it, and the rest of the cloth feels the
-//!   support within the same step. This is the implicit penalty form of
-//!   Baraff & Witkin's constraint, which leaves the conjugate gradient and
-//!   its preconditioners as they are.
+//!   [`KAPPA`], `m` the particle's mass, or the mass its contact carries
+//!   up to [`BODY_STIFFENING`] times that: against a free body its share of
+//!   the body's mass, against a fixed surface, for a particle that also
+//!   touches a body (under a dish on a tablecloth), its last load over
+//!   [`LOAD_GRAVITY`]; `γ` the step's
+//!   velocity-to-position factor, `h` for backward Euler), whose rest is
+//!   the contact thickness: the solve keeps the particle on the surface to
+//!   within `1/(1 + κ)` of its motion into it, and the rest of the cloth
+//!   feels the support within the same step. This is the implicit penalty
+//!   form of Baraff & Witkin's constraint, which leaves the conjugate
+//!   gradient and its preconditioners as they are.
 //! - **Friction**, by Coulomb's law with the normal force `λ` (N) the
 //!   contact carried in the last step (or, new, the pressure of the forces
 //!   on the particle now). A particle sliding along the surface faster than
@@ -47,7 +50,12 @@
 //! tablecloth over a table): a contact whose spring ends up pulling
 //! the body (the particle was leaving it) is let go, and a body that
 //! friction carried along faster than Coulomb's law allows (a cloth pulled
-//! from under a plate) slides ([`GRIP_LIMIT`]). The caller applies the
+//! from under a plate) slides ([`GRIP_LIMIT`]). A particle leaving a body
+//! pulled the body its way in that solve, and the cloth under the body
+//! held it back: that friction is not friction carrying the body, so a
+//! body's friction is judged with its leaving contacts' pulls, and in a
+//! pass that lets a contact of a body go no contact with a fixed surface
+//! slides (the next pass judges them without it). The caller applies the
 //! impulses ([`ContactBuffers::impulses`]) to the body after the step.
 //!
 //! After the solve the spring gives the contact force `λ` of the step: a
@@ -109,11 +117,17 @@ pub enum Hold {
 /// step squared (dimensionless, module docs).
 pub const KAPPA: f32 = 1000.0;
 
-/// The most a contact with a free body is stiffened over one with a fixed
-/// surface (dimensionless, module docs): beyond it, the contact's force,
-/// the product of a stiffness and a stretch of a few nanometres, loses
-/// its precision in `f32`.
+/// The most a contact is stiffened over one with a fixed surface that
+/// carries only its particle (dimensionless, module docs): beyond it, the
+/// contact's force, the product of a stiffness and a stretch of a few
+/// nanometres, loses its precision in `f32`.
 pub const BODY_STIFFENING: f32 = 10.0;
+
+/// The acceleration (m/s²) that turns a contact's load into the mass it
+/// carries, for the stiffening of the contact with a fixed surface of a
+/// particle squeezed between it and a body (standard gravity; module
+/// docs).
+pub const LOAD_GRAVITY: f32 = 9.81;
 
 /// The fastest (m/s) a particle found inside a free body is brought out
 /// of it (module docs).
@@ -208,6 +222,9 @@ pub struct ContactBuffers {
     /// contacts (in `begin`) or Coulomb bound `Σ α μ λ` (N·s, in `revise`).
     links: Vec<(u32, u32, [f32; 6], Vec3, Vec3)>,
     counts: Vec<f32>,
+    /// Scratch of [`begin`](Self::begin): whether each particle touches a
+    /// free body (false again after it).
+    under_body: Vec<bool>,
     /// Scratch of [`revise`](Self::revise): each held contact's normal
     /// force (N) and holding friction's impulse (N·s), and each body's net
     /// friction impulse (N·s).
@@ -304,9 +321,13 @@ impl ContactBuffers {
         // the body's mass along the surface to sliding friction.
         self.counts.clear();
         self.counts.resize(self.bodies.len(), 0.0);
+        self.under_body.resize(n, false);
         for c in &self.list {
             if let Some(count) = self.counts.get_mut(c.body as usize) {
                 *count += 1.0;
+                if let Some(under) = self.under_body.get_mut(c.particle as usize) {
+                    *under = true;
+                }
             }
         }
         let gamma = beta / alpha;
@@ -359,13 +380,21 @@ impl ContactBuffers {
             // mass, up to [`BODY_STIFFENING`] times the particle's, so that
             // the body's weight does not press a spring sized for a particle
             // of cloth far into it (a 5 kg ball on 11 contacts of 0.8 g
-            // particles: 0.16 mm rather than 1.6 mm).
+            // particles: 0.16 mm rather than 1.6 mm). A particle squeezed
+            // between a fixed surface and a body carries the body's weight
+            // to that surface: its contact there takes the mass its load
+            // stands for ([`LOAD_GRAVITY`]), as far, or sized for the
+            // particle alone it would let a dish on a tablecloth sink into
+            // the cloth's thickness and tip (a 0.9 kg bottle on a 2.5 cm
+            // grid: 2.6 mm). A cloth pressed by a fixed surface alone (a
+            // ball pushed into a hammock) keeps its spring: stiffened by
+            // the cloth's tension, it would jolt the cloth as it lands.
             let stiffening = match body {
-                Some((k, _, b)) => {
-                    (b.mass * w / self.counts[k as usize]).clamp(1.0, BODY_STIFFENING)
-                }
+                Some((k, _, b)) => b.mass * w / self.counts[k as usize],
+                None if self.under_body[p] => load * w / LOAD_GRAVITY,
                 None => 1.0,
-            };
+            }
+            .clamp(1.0, BODY_STIFFENING);
             self.held.push(Held {
                 index,
                 k: stiffening * KAPPA / (w * gamma * gamma),
@@ -378,6 +407,11 @@ impl ContactBuffers {
                 along,
                 friction,
             });
+        }
+        for c in &self.list {
+            if let Some(under) = self.under_body.get_mut(c.particle as usize) {
+                *under = false;
+            }
         }
         self.hold.fill(Hold::Free);
         self.load.fill([0.0; 2]);
@@ -449,6 +483,10 @@ impl ContactBuffers {
     ///   Held by a damping sized for creeping, the body would be carried
     ///   along with the cloth at any speed.
     ///
+    /// A body's friction is judged with the pulls of its contacts that let
+    /// go, which that friction held back; in a pass that lets a contact of
+    /// a body go, no contact with a fixed surface slides.
+    ///
     /// `v` each particle's velocity at the end of the solve (m/s), `dv` the
     /// solve's `Δv` (m/s), `coupling` the free bodies' velocity changes, `γ`
     /// and `h` (s) as for [`finish`](Self::finish). Returns whether any
@@ -483,7 +521,13 @@ impl ContactBuffers {
                 Friction::Slide(_) => Vec3::ZERO,
             };
             if let Some((body, _)) = held.body {
-                self.net[body as usize] += grip;
+                // A leaving particle's spring pulls the body its way, and
+                // the friction under the body that holds it back is not
+                // friction carrying the body: counted with that pull, it
+                // adds up to what moves the body. (`grip` is the impulse
+                // friction gives the body.)
+                let pull = -alpha * force.min(0.0) * c.normal;
+                self.net[body as usize] += grip + pull;
                 self.counts[body as usize] += alpha * c.friction * force.max(0.0);
             }
             self.grips.push((force, grip));
@@ -495,6 +539,14 @@ impl ContactBuffers {
             let down = body.acceleration.normalize_or_zero();
             *net -= net.dot(down) * down;
         }
+        // Where a contact lets go of a body, the cloth under the body was
+        // held in this solve by the frictions its pull set up: a table's
+        // contacts slide only once the step is solved without it.
+        let leaving = self
+            .held
+            .iter()
+            .zip(&self.grips)
+            .any(|(held, &(force, _))| held.body.is_some() && force < 0.0);
         let list = &self.list;
         let (net, counts) = (&self.net, &self.counts);
         let mut changed = false;
@@ -503,7 +555,7 @@ impl ContactBuffers {
             let &(force, grip) = grips.next().expect("one grip a held contact");
             let bound = alpha * list[held.index].friction * force;
             let Some((body, _)) = held.body else {
-                if force > 0.0 && grip.length() > GRIP_LIMIT * bound {
+                if !leaving && force > 0.0 && grip.length() > GRIP_LIMIT * bound {
                     held.friction = Friction::Slide(grip * (bound / grip.length()));
                     changed = true;
                 }

@@ -3,7 +3,7 @@
 //! outside it.
 
 use super::*;
-use crate::sim::integrate::implicit::contacts::{DEPENETRATION_SPEED, STICK_SPEED};
+use crate::sim::integrate::implicit::contacts::{DEPENETRATION_SPEED, KAPPA, STICK_SPEED};
 
 /// Mass (kg) and step (s) of the tests.
 const M: f32 = 0.01;
@@ -98,6 +98,52 @@ fn a_particle_at_rest_on_the_floor_stays_on_it_and_carries_its_weight() {
     assert!(x.y.abs() < 9.81 * H * H / 1000.0 * 2.0, "{x}");
     assert!(v.length() < 1e-4, "{v}");
     assert_eq!(hold, Hold::Stick);
+}
+
+#[test]
+fn a_particle_under_a_body_sinks_into_the_floor_a_tenth_as_far() {
+    // A 0.5 kg body resting on a particle on the floor, fifty times the
+    // particle's weight (a dish on a tablecloth). The particle's spring on
+    // the floor alone would give way by `λ h² / (κ m)`, 0.14 mm, and a
+    // dish on a few particles would sink into the cloth's thickness and
+    // tip. Stiffened by the load it carries, it gives way a tenth as far.
+    const BODY: f32 = 0.5;
+    let gravity = Vec3::new(0.0, -9.81, 0.0);
+    let (x, v) = one_particle(Vec3::ZERO, |dynamics| {
+        let (mut x, mut v) = ([Vec3::ZERO], [Vec3::ZERO]);
+        // The body's underside (m) and its velocity (m/s).
+        let (mut y, mut speed) = (0.0f32, 0.0f32);
+        let mut buffers = ImplicitBuffers::default();
+        for _ in 0..120 {
+            let contacts = &mut buffers.contacts;
+            contacts.list.clear();
+            contacts.bodies.clear();
+            contacts
+                .list
+                .push(touching(0, Vec3::Y, x[0].y, 0.5, NO_BODY));
+            let mut on_body = touching(0, Vec3::NEG_Y, y - x[0].y, 0.5, 0);
+            on_body.velocity = Vec3::Y * speed;
+            contacts.list.push(on_body);
+            let mut body = SolveBody::new(BODY, Vec3::Y * y);
+            body.acceleration = gravity;
+            contacts.bodies.push(body);
+            backward_euler(dynamics, &mut x, &mut v, H, &mut buffers);
+            // The solve's change, gravity included; a body it did not
+            // move falls by its engine's gravity.
+            let change = buffers.contacts.body_change(0)[0].y;
+            speed += if change == 0.0 { gravity.y * H } else { change };
+            y += H * speed;
+        }
+        (x[0], v[0])
+    });
+    let soft = (BODY + M) * 9.81 * H * H / (KAPPA * M);
+    assert!(
+        -x.y < 0.11 * soft,
+        "it sinks {} mm, unstiffened {} mm",
+        -1000.0 * x.y,
+        1000.0 * soft
+    );
+    assert!(v.length() < 1e-4, "{v}");
 }
 
 #[test]
@@ -483,5 +529,59 @@ fn a_body_is_handed_the_impulse_the_solve_gave_it_when_a_squeezed_particle_stops
     assert!(
         (given - gained).length() <= 0.01 * gained.length() + 1e-4,
         "the body is handed {given} N·s, the solve gave it {gained}"
+    );
+}
+
+#[test]
+fn a_contact_letting_go_of_a_body_does_not_make_it_slide() {
+    // A 0.5 kg body resting on four particles on the floor, and a fifth
+    // particle at its side, pulled away from it with 5 N in the second
+    // step. Held in that step's first solve, the particle's spring pulls
+    // the body along +X and the friction under the body holds it back,
+    // past three times its Coulomb bound. The particle is let go; the
+    // frictions it set up are not the body's to slide by: with it gone,
+    // nothing moves the body along.
+    const BODY: f32 = 0.5;
+    let gravity = Vec3::new(0.0, -9.81, 0.0);
+    let mut x: Vec<Vec3> = (0..4)
+        .map(|i| {
+            Vec3::new(
+                0.1 * (i % 2) as f32 - 0.05,
+                0.0,
+                0.1 * (i / 2) as f32 - 0.05,
+            )
+        })
+        .collect();
+    x.push(Vec3::new(0.1, 0.01, 0.0));
+    let mut v = vec![Vec3::ZERO; 5];
+    let mut buffers = ImplicitBuffers::default();
+    let mut step = |pull: f32| {
+        let mut push = vec![Vec3::ZERO; 5];
+        push[4] = Vec3::X * pull;
+        weightless(&push, |dynamics| {
+            let contacts = &mut buffers.contacts;
+            contacts.list.clear();
+            contacts.bodies.clear();
+            // Each pressed a hair into what it touches.
+            for i in 0..4 {
+                contacts
+                    .list
+                    .push(touching(i, Vec3::Y, -1e-4, 0.5, NO_BODY));
+                contacts.list.push(touching(i, Vec3::NEG_Y, -1e-4, 0.2, 0));
+            }
+            contacts.list.push(touching(4, Vec3::X, -1e-4, 0.2, 0));
+            let mut body = SolveBody::new(BODY, Vec3::new(0.0, 0.01, 0.0));
+            body.acceleration = gravity;
+            contacts.bodies.push(body);
+            backward_euler(dynamics, &mut x, &mut v, H, &mut buffers);
+            buffers.contacts.body_change(0)[0]
+        })
+    };
+    step(0.0);
+    let linear = step(5.0);
+    assert!(
+        linear.x.abs() < 1e-3,
+        "the body moves along at {} m/s",
+        linear.x
     );
 }
