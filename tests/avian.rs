@@ -810,15 +810,9 @@ fn a_cloth_yanked_from_under_a_plate_leaves_it_behind() {
     assert!(moved < 0.1, "the plate moved {moved} m");
 }
 
-/// A 1 m sheet of `n` × `n` particles lying on an avian table top (y = 0)
-/// and a dynamic cylinder (`radius`, `height` m, `mass` kg, friction 0.2)
-/// set upright on it at `(x, z)`: the cloth and the dish.
-fn dish_on_a_table(
-    app: &mut App,
-    n: u32,
-    (x, z): (f32, f32),
-    (radius, height, mass): (f32, f32, f32),
-) -> (Entity, Entity) {
+/// A 1 m sheet of `n` × `n` particles lying on a 3 m avian table top
+/// (y = 0): the cloth.
+fn cloth_on_a_table(app: &mut App, n: u32) -> Entity {
     app.world_mut().spawn((
         RigidBody::Static,
         Collider::cuboid(3.0, 0.04, 3.0),
@@ -829,9 +823,13 @@ fn dish_on_a_table(
         .position(Vec3::new(0.0, 0.005, 0.0))
         .build()
         .unwrap();
-    let cloth = app.world_mut().spawn(cloth).id();
-    let dish = app
-        .world_mut()
+    app.world_mut().spawn(cloth).id()
+}
+
+/// A dynamic cylinder (`radius`, `height` m, `mass` kg, friction 0.2) set
+/// upright at `(x, z)` on a cloth lying on the table top.
+fn dish(app: &mut App, (x, z): (f32, f32), (radius, height, mass): (f32, f32, f32)) -> Entity {
+    app.world_mut()
         .spawn((
             RigidBody::Dynamic,
             Collider::cylinder(radius, height),
@@ -839,8 +837,7 @@ fn dish_on_a_table(
             Friction::new(0.2),
             Transform::from_xyz(x, 0.0105 + height / 2.0, z),
         ))
-        .id();
-    (cloth, dish)
+        .id()
 }
 
 #[test]
@@ -852,7 +849,8 @@ fn a_bottle_stands_on_a_tablecloth() {
     // its rim and fall over.
     for at in [(0.0, 0.0), (0.013, 0.007)] {
         let mut app = app();
-        let (cloth, bottle) = dish_on_a_table(&mut app, 41, at, (0.04, 0.3, 0.9));
+        let cloth = cloth_on_a_table(&mut app, 41);
+        let bottle = dish(&mut app, at, (0.04, 0.3, 0.9));
         run(&mut app, 240, cloth);
         let up = app.world().get::<Rotation>(bottle).unwrap().0 * Vec3::Y;
         let tilt = up.angle_between(Vec3::Y).to_degrees();
@@ -869,7 +867,8 @@ fn a_plate_set_on_a_fine_tablecloth_stays_where_it_was_set() {
     // must not make the plate slide (they once kicked it off the cloth).
     for at in [(-0.22, -0.1), (0.13, 0.07), (0.05, -0.21)] {
         let mut app = app();
-        let (cloth, plate) = dish_on_a_table(&mut app, 41, at, (0.11, 0.02, 0.5));
+        let cloth = cloth_on_a_table(&mut app, 41);
+        let plate = dish(&mut app, at, (0.11, 0.02, 0.5));
         run(&mut app, 30, cloth);
         let start = app.world().get::<Position>(plate).unwrap().0;
         let mut farthest = 0.0f32;
@@ -884,4 +883,70 @@ fn a_plate_set_on_a_fine_tablecloth_stays_where_it_was_set() {
             "the plate set at {at:?} moved {farthest} m"
         );
     }
+}
+
+/// The tablecloth trick on a 41 × 41 cloth (2.5 cm grid) lying on a table:
+/// two plates, a cup and a squat bottle on it, its near edge pulled along
+/// +Z by a hand that reaches `speed` m/s in 0.1 s and travels `distance`
+/// m, then 1 s more. How far each dish moved (m).
+fn tablecloth_trick(speed: f32, distance: f32) -> Vec<f32> {
+    let mut app = app();
+    let n = 41;
+    let cloth = cloth_on_a_table(&mut app, n);
+    // (x, z), (radius, height, mass): plates, a cup, a bottle that does not
+    // tip at the friction it feels (0.2 combined with the cloth's 0.4).
+    let dishes: Vec<Entity> = [
+        ((-0.22, -0.1), (0.11, 0.02, 0.5)),
+        ((0.22, -0.1), (0.11, 0.02, 0.5)),
+        ((-0.2, 0.25), (0.04, 0.09, 0.25)),
+        ((0.15, 0.25), (0.05, 0.25, 0.9)),
+    ]
+    .into_iter()
+    .map(|(at, size)| dish(&mut app, at, size))
+    .collect();
+    let at = |app: &App| -> Vec<Vec3> {
+        dishes
+            .iter()
+            .map(|&d| app.world().get::<Position>(d).unwrap().0)
+            .collect()
+    };
+    run(&mut app, 60, cloth);
+    let start = at(&app);
+    let edge: Vec<u32> = ((n - 1) * n..n * n).collect();
+    grab_where_they_are(&mut app, cloth, &edge);
+    let (mut travelled, mut k) = (0.0, 0);
+    while travelled < distance {
+        let step = speed * ((k + 1) as f32 / 6.0).min(1.0) / 60.0;
+        move_grabs(&mut app, cloth, Vec3::Z * step);
+        run(&mut app, 1, cloth);
+        travelled += step;
+        k += 1;
+    }
+    app.world_mut()
+        .get_mut::<ClothGrabs>(cloth)
+        .unwrap()
+        .release_all();
+    run(&mut app, 60, cloth);
+    start
+        .iter()
+        .zip(at(&app))
+        .map(|(a, b)| a.distance(b))
+        .collect()
+}
+
+#[test]
+fn a_tablecloth_yanked_from_under_the_dishes_leaves_them_standing() {
+    // 7 m/s for 1.2 m, out from under all of them: each dish feels the
+    // cloth's friction for a few hundredths of a second.
+    let moved = tablecloth_trick(7.0, 1.2);
+    eprintln!("yanked: the dishes moved {moved:.3?} m");
+    assert!(moved.iter().all(|&m| m < 0.05), "{moved:?}");
+}
+
+#[test]
+fn a_tablecloth_pulled_slowly_carries_the_dishes_along() {
+    // 0.5 m/s for 0.5 m: friction carries every dish along with the cloth.
+    let moved = tablecloth_trick(0.5, 0.5);
+    eprintln!("pulled slowly: the dishes moved {moved:.3?} m");
+    assert!(moved.iter().all(|&m| m > 0.2), "{moved:?}");
 }

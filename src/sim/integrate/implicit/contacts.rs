@@ -58,6 +58,17 @@
 //! slides (the next pass judges them without it). The caller applies the
 //! impulses ([`ContactBuffers::impulses`]) to the body after the step.
 //!
+//! **A cloth lying on a surface under a body.** A particle lying on a fixed
+//! surface (touching it, within [`SHEET_GAP`]) is a piece of sheet between
+//! that surface and any body touching it from the other side, and the body
+//! can only press it against the surface: its contact with the body takes
+//! the surface's normal, reversed, whatever the body's nearest point says.
+//! A plate's rim, sunk or tipped into the cloth's thickness, faces an
+//! oncoming particle half sideways: a tablecloth yanked from under the
+//! plate would push it along, and be held back by it, rather than slide
+//! under it. A wall standing on the surface, level with the particle,
+//! faces it sideways and keeps its normal ([`SHEET_FACING`]).
+//!
 //! After the solve the spring gives the contact force `λ` of the step: a
 //! pulling one means the particle was leaving, and the spring held it back
 //! for that step; it is not held again unless it comes back. Otherwise `λ`
@@ -129,6 +140,17 @@ pub const BODY_STIFFENING: f32 = 10.0;
 /// docs).
 pub const LOAD_GRAVITY: f32 = 9.81;
 
+/// How far outside its contact thickness (m) a particle still lies on a
+/// fixed surface, for a body's contact from the other side to press it
+/// against that surface (module docs).
+pub const SHEET_GAP: f32 = 1e-3;
+
+/// How far a body's contact must face against the fixed surface a particle
+/// lies on (the cosine between their normals, below its negative) to press
+/// the particle against it: a wall standing on the surface, level with the
+/// particle, keeps its own normal (module docs).
+pub const SHEET_FACING: f32 = 0.05;
+
 /// The fastest (m/s) a particle found inside a free body is brought out
 /// of it (module docs).
 pub const DEPENETRATION_SPEED: f32 = 1.0;
@@ -199,7 +221,9 @@ impl Held {
 /// The contacts of a cloth's implicit solve, kept between steps.
 #[derive(Clone, Debug, Default)]
 pub struct ContactBuffers {
-    /// This step's contacts, listed by the caller before the step.
+    /// This step's contacts, listed by the caller before the step. The
+    /// step may turn the normal of a body's contact with a particle lying
+    /// on a fixed surface (module docs).
     pub list: Vec<SolveContact>,
     /// The free bodies behind them ([`SolveContact::body`]), listed by the
     /// caller with them.
@@ -225,6 +249,10 @@ pub struct ContactBuffers {
     /// Scratch of [`begin`](Self::begin): whether each particle touches a
     /// free body (false again after it).
     under_body: Vec<bool>,
+    /// Scratch of [`press_sheets`](Self::press_sheets): the normal of the
+    /// fixed surface each particle lies on (zero for none, and again after
+    /// it).
+    support: Vec<Vec3>,
     /// Scratch of [`revise`](Self::revise): each held contact's normal
     /// force (N) and holding friction's impulse (N·s), and each body's net
     /// friction impulse (N·s).
@@ -330,6 +358,7 @@ impl ContactBuffers {
                 }
             }
         }
+        self.press_sheets(n);
         let gamma = beta / alpha;
         for (index, c) in self.list.iter().enumerate() {
             let p = c.particle as usize;
@@ -417,6 +446,33 @@ impl ContactBuffers {
         self.load.fill([0.0; 2]);
         self.any = !self.held.is_empty();
         self.any
+    }
+
+    /// Turns the contact of a body with a particle lying on a fixed surface
+    /// (touching it, within [`SHEET_GAP`]) from the other side to that
+    /// surface's normal, reversed (`n` particles; module docs).
+    fn press_sheets(&mut self, n: usize) {
+        self.support.resize(n, Vec3::ZERO);
+        for c in &self.list {
+            if c.body == NO_BODY
+                && !c.edge
+                && c.gap <= SHEET_GAP
+                && let Some(support) = self.support.get_mut(c.particle as usize)
+            {
+                *support = c.normal;
+            }
+        }
+        for c in self.list.iter_mut().filter(|c| c.body != NO_BODY) {
+            let support = self.support.get(c.particle as usize).copied();
+            if let Some(support) = support.filter(|&s| c.normal.dot(s) < -SHEET_FACING) {
+                c.normal = -support;
+            }
+        }
+        for c in &self.list {
+            if let Some(support) = self.support.get_mut(c.particle as usize) {
+                *support = Vec3::ZERO;
+            }
+        }
     }
 
     /// The solve's terms of the held contacts: each one's diagonal block

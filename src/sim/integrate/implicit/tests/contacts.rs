@@ -585,3 +585,35 @@ fn a_contact_letting_go_of_a_body_does_not_make_it_slide() {
         linear.x
     );
 }
+
+#[test]
+fn a_body_presses_a_particle_lying_on_the_floor_against_the_floor() {
+    // A particle of a tablecloth slides along the floor at 5 m/s under the
+    // rim of a 0.5 kg plate tipped a millimetre into the cloth's thickness:
+    // the rim's nearest point faces the particle half sideways. A cloth
+    // lying on a table can only be pressed against it: the plate is lifted
+    // out of the cloth and dragged by friction (μ 0.2), `μ g h` = 3.3 cm/s
+    // and not much more, rather than pushed along by the oncoming cloth.
+    const BODY: f32 = 0.5;
+    let gravity = Vec3::new(0.0, -9.81, 0.0);
+    let (x, v) = ([Vec3::ZERO], [Vec3::Z * 5.0]);
+    let [linear, _] = one_particle(Vec3::ZERO, |dynamics| {
+        let (mut x, mut v) = (x, v);
+        let mut buffers = ImplicitBuffers::default();
+        let contacts = &mut buffers.contacts;
+        contacts.list.push(touching(0, Vec3::Y, 0.0, 0.5, NO_BODY));
+        let rim = Vec3::new(0.0, -0.6, -0.8);
+        contacts.list.push(touching(0, rim, -1e-3, 0.2, 0));
+        let mut body = SolveBody::new(BODY, Vec3::new(0.0, 0.01, 0.1));
+        body.acceleration = gravity;
+        contacts.bodies.push(body);
+        backward_euler(dynamics, &mut x, &mut v, H, &mut buffers);
+        buffers.contacts.body_change(0)
+    });
+    let coulomb = 0.2 * 9.81 * H;
+    assert!(
+        linear.z.abs() < 1.5 * coulomb,
+        "the plate is pushed along at {} m/s, friction allows {coulomb}",
+        linear.z
+    );
+}
