@@ -844,9 +844,9 @@ fn dish(app: &mut App, (x, z): (f32, f32), (radius, height, mass): (f32, f32, f3
 fn a_bottle_stands_on_a_tablecloth() {
     // A 0.9 kg bottle 8 cm across on a 2.5 cm grid, on a particle and off
     // the grid: a few particles carry its weight, a hundred times theirs.
-    // Their contacts with the table must not give way under it (they once
-    // sank 2.6 mm, half the cloth's thickness): the bottle would lean onto
-    // its rim and fall over.
+    // Their contacts with the table must not give way under it (sized for
+    // the particles alone they sink 2.6 mm, half the cloth's thickness):
+    // the bottle would lean onto its rim and fall over.
     for at in [(0.0, 0.0), (0.013, 0.007)] {
         let mut app = app();
         let cloth = cloth_on_a_table(&mut app, 41);
@@ -864,7 +864,8 @@ fn a_plate_set_on_a_fine_tablecloth_stays_where_it_was_set() {
     // A 0.5 kg plate on a 2.5 cm grid, set down off the grid in three
     // places, for 4 s. At its rim a particle's contact lets go of the plate
     // now and then; the frictions that contact set up in the same solve
-    // must not make the plate slide (they once kicked it off the cloth).
+    // must not make the plate slide (judged by them, it is kicked a
+    // centimetre up and wanders centimetres).
     for at in [(-0.22, -0.1), (0.13, 0.07), (0.05, -0.21)] {
         let mut app = app();
         let cloth = cloth_on_a_table(&mut app, 41);
