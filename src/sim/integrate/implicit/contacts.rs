@@ -112,6 +112,16 @@ pub struct SolveContact {
 /// [`SolveContact::body`] of a surface with no free body behind it.
 pub const NO_BODY: u32 = u32::MAX;
 
+/// What a particle touches in this step ([`ContactBuffers::begin`]).
+#[derive(Clone, Copy, Debug, Default)]
+struct Touches {
+    /// A free body.
+    body: bool,
+    /// The outward normal of the fixed surface it lies on (within
+    /// [`SHEET_GAP`]), or zero.
+    support: Vec3,
+}
+
 /// How the solve held a particle in the last step.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Hold {
@@ -246,13 +256,9 @@ pub struct ContactBuffers {
     /// contacts (in `begin`) or Coulomb bound `Σ α μ λ` (N·s, in `revise`).
     links: Vec<(u32, u32, [f32; 6], Vec3, Vec3)>,
     counts: Vec<f32>,
-    /// Scratch of [`begin`](Self::begin): whether each particle touches a
-    /// free body (false again after it).
-    under_body: Vec<bool>,
-    /// Scratch of [`press_sheets`](Self::press_sheets): the normal of the
-    /// fixed surface each particle lies on (zero for none, and again after
-    /// it).
-    support: Vec<Vec3>,
+    /// Scratch of [`begin`](Self::begin): what each particle touches
+    /// (nothing again after it).
+    touches: Vec<Touches>,
     /// Scratch of [`revise`](Self::revise): each held contact's normal
     /// force (N) and holding friction's impulse (N·s), and each body's net
     /// friction impulse (N·s).
@@ -349,16 +355,19 @@ impl ContactBuffers {
         // the body's mass along the surface to sliding friction.
         self.counts.clear();
         self.counts.resize(self.bodies.len(), 0.0);
-        self.under_body.resize(n, false);
+        self.touches.resize(n, Touches::default());
         for c in &self.list {
+            let Some(touches) = self.touches.get_mut(c.particle as usize) else {
+                continue;
+            };
             if let Some(count) = self.counts.get_mut(c.body as usize) {
                 *count += 1.0;
-                if let Some(under) = self.under_body.get_mut(c.particle as usize) {
-                    *under = true;
-                }
+                touches.body = true;
+            } else if c.body == NO_BODY && !c.edge && c.gap <= SHEET_GAP {
+                touches.support = c.normal;
             }
         }
-        self.press_sheets(n);
+        self.press_sheets();
         let gamma = beta / alpha;
         for (index, c) in self.list.iter().enumerate() {
             let p = c.particle as usize;
@@ -420,7 +429,7 @@ impl ContactBuffers {
             // the cloth's tension, it would jolt the cloth as it lands.
             let stiffening = match body {
                 Some((k, _, b)) => b.mass * w / self.counts[k as usize],
-                None if self.under_body[p] => load * w / LOAD_GRAVITY,
+                None if self.touches[p].body => load * w / LOAD_GRAVITY,
                 None => 1.0,
             }
             .clamp(1.0, BODY_STIFFENING);
@@ -438,8 +447,8 @@ impl ContactBuffers {
             });
         }
         for c in &self.list {
-            if let Some(under) = self.under_body.get_mut(c.particle as usize) {
-                *under = false;
+            if let Some(touches) = self.touches.get_mut(c.particle as usize) {
+                *touches = Touches::default();
             }
         }
         self.hold.fill(Hold::Free);
@@ -449,28 +458,13 @@ impl ContactBuffers {
     }
 
     /// Turns the contact of a body with a particle lying on a fixed surface
-    /// (touching it, within [`SHEET_GAP`]) from the other side to that
-    /// surface's normal, reversed (`n` particles; module docs).
-    fn press_sheets(&mut self, n: usize) {
-        self.support.resize(n, Vec3::ZERO);
-        for c in &self.list {
-            if c.body == NO_BODY
-                && !c.edge
-                && c.gap <= SHEET_GAP
-                && let Some(support) = self.support.get_mut(c.particle as usize)
-            {
-                *support = c.normal;
-            }
-        }
+    /// (touching it, within [`SHEET_GAP`]: [`Touches::support`]) from the
+    /// other side to that surface's normal, reversed (module docs).
+    fn press_sheets(&mut self) {
         for c in self.list.iter_mut().filter(|c| c.body != NO_BODY) {
-            let support = self.support.get(c.particle as usize).copied();
+            let support = self.touches.get(c.particle as usize).map(|t| t.support);
             if let Some(support) = support.filter(|&s| c.normal.dot(s) < -SHEET_FACING) {
                 c.normal = -support;
-            }
-        }
-        for c in &self.list {
-            if let Some(support) = self.support.get_mut(c.particle as usize) {
-                *support = Vec3::ZERO;
             }
         }
     }
