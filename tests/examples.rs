@@ -12,7 +12,7 @@ use bevy::ecs::schedule::ScheduleLabel;
 use bevy::prelude::*;
 use bevy_cloth::prelude::*;
 
-const WINDOWED: [&str; 8] = [
+const WINDOWED: [&str; 10] = [
     "hanging",
     "tablecloth",
     "sphere",
@@ -21,6 +21,8 @@ const WINDOWED: [&str; 8] = [
     "round_tablecloth",
     "flag",
     "cape",
+    "hammock",
+    "tablecloth_trick",
 ];
 
 fn source(name: &str) -> String {
