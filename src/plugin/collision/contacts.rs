@@ -268,7 +268,16 @@ impl ContactHook for SceneContacts<'_> {
             }
             let moving = self.feedback.moving(collider, c, sub);
             let both = (collider, moving);
-            against += collide_one(both, sub, (self.thickness, self.helper), start, x, v, w);
+            // A body that gives way holds, within the solve, the particles
+            // in its contact thickness; after the step only a particle
+            // that crossed into the body itself is stopped, and the next
+            // step's springs hold what overlap is left.
+            let thickness = if held.len() == x.len() && collider.body().is_some() {
+                0.0
+            } else {
+                self.thickness
+            };
+            against += collide_one(both, sub, (thickness, self.helper), start, x, v, w);
             if collider.feedback {
                 self.feedback.measure(c, x, v, all);
             }
