@@ -1,9 +1,9 @@
 //! The tablecloth trick: plates, a cup and a bottle, avian dynamic bodies,
 //! stand on a cloth lying on a round table. Yanked out fast, the cloth
-//! slides from under them and the plates stay where they stood; the light
-//! cup, and often the bottle, can still be thrown (the README's
-//! limitations say how often). Pulled slowly, friction carries them along
-//! with the cloth.
+//! slides from under them and they stay where they stood, though where a
+//! particle of the cloth catches at a dish's rim that dish is thrown (the
+//! README's limitations say how often). Pulled slowly, friction carries
+//! them along with the cloth.
 //!
 //! `cargo run --release --features avian --example tablecloth_trick`
 //!
