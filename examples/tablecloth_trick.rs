@@ -10,8 +10,8 @@
 //! Keys: `Y` yanks the cloth out to the left (the hand reaches 7 m/s in
 //! 0.1 s and travels 1.5 m, the cloth's length and more, then stops and
 //! lets go), `S` pulls it slowly (0.5 m/s for 0.6 m), `R` lays the table
-//! again. Drag the cloth to
-//! pull it, drag elsewhere to orbit, scroll to zoom.
+//! again. Drag the cloth to pull it, drag elsewhere to orbit, scroll to
+//! zoom.
 
 mod automation;
 
