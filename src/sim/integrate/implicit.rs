@@ -623,9 +623,7 @@ fn backward_euler_step(
 /// passes end. Next to a body one correction shows the next: under a plate
 /// on a tablecloth, the body's friction shows its grip only once the
 /// table's contact slides, and a contact that ends up pulling only once
-/// the plate slides. A tablecloth pulled from under a plate at 7 m/s leaves
-/// it 3 cm from where it stood; with two passes it carries it off at the
-/// cloth's speed. A step with fixed surfaces only is revised once.
+/// the plate slides. A step with fixed surfaces only is revised once.
 const REVISIONS: usize = 8;
 
 /// How many revision passes this step may take ([`REVISIONS`]).
