@@ -977,3 +977,79 @@ fn a_tablecloth_yanked_from_under_a_plate_slides_on_under_its_rim() {
         );
     }
 }
+
+/// The `tablecloth_trick` example's scene: a 1 m cloth (2.5 cm grid) lying
+/// on a round table top (radius 0.75 m, upper face at y = 0, the floor
+/// 0.78 m below) with its plates, cup and bottle; a hand takes the cloth's first column and pulls
+/// it along −X, reaching `speed` m/s in `run_up` s, for `distance` m, stops,
+/// and lets go 0.3 s later. How far each dish moved after 1 s more (m).
+fn round_table_trick(speed: f32, run_up: f32, distance: f32) -> Vec<f32> {
+    let mut app = app();
+    app.world_mut().spawn((
+        RigidBody::Static,
+        Collider::cylinder(0.75, 0.04),
+        Transform::from_xyz(0.0, -0.02, 0.0),
+    ));
+    app.world_mut().spawn((
+        RigidBody::Static,
+        Collider::half_space(Vec3::Y),
+        Transform::from_xyz(0.0, -0.78, 0.0),
+    ));
+    let n = 41;
+    let cloth = ClothBuilder::new(n, n)
+        .size(1.0, 1.0)
+        .position(Vec3::new(0.0, 0.005, 0.0))
+        .build()
+        .unwrap();
+    let cloth = app.world_mut().spawn(cloth).id();
+    let dishes: Vec<Entity> = [
+        ((0.1, -0.19), (0.11, 0.02, 0.5)),
+        ((0.1, 0.25), (0.11, 0.02, 0.5)),
+        ((-0.25, -0.17), (0.04, 0.09, 0.25)),
+        ((-0.25, 0.18), (0.05, 0.25, 0.9)),
+    ]
+    .into_iter()
+    .map(|(at, size)| dish(&mut app, at, size))
+    .collect();
+    let at = |app: &App| -> Vec<Vec3> {
+        dishes
+            .iter()
+            .map(|&d| app.world().get::<Position>(d).unwrap().0)
+            .collect()
+    };
+    run(&mut app, 60, cloth);
+    let start = at(&app);
+    let edge: Vec<u32> = (0..n).map(|row| row * n).collect();
+    grab_where_they_are(&mut app, cloth, &edge);
+    let (mut travelled, mut k) = (0.0, 0);
+    while travelled < distance {
+        let ramp = ((k + 1) as f32 / (run_up * 60.0).max(1.0)).min(1.0);
+        let step = speed * ramp / 60.0;
+        move_grabs(&mut app, cloth, -Vec3::X * step);
+        run(&mut app, 1, cloth);
+        travelled += step;
+        k += 1;
+    }
+    run(&mut app, 18, cloth);
+    app.world_mut()
+        .get_mut::<ClothGrabs>(cloth)
+        .unwrap()
+        .release_all();
+    run(&mut app, 60, cloth);
+    let moved = start.iter().zip(at(&app)).map(|(a, b)| a.distance(b));
+    moved.collect()
+}
+
+#[test]
+fn the_example_s_tablecloth_yanked_off_a_round_table_leaves_the_dishes_standing() {
+    let moved = round_table_trick(7.0, 0.1, 1.5);
+    eprintln!("yanked off the round table: the dishes moved {moved:.3?} m");
+    assert!(moved.iter().all(|&m| m < 0.05), "{moved:?}");
+}
+
+#[test]
+fn the_example_s_tablecloth_pulled_slowly_carries_the_dishes_along() {
+    let moved = round_table_trick(0.5, 0.0, 0.6);
+    eprintln!("pulled slowly over the round table: the dishes moved {moved:.3?} m");
+    assert!(moved.iter().all(|&m| m > 0.2), "{moved:?}");
+}
