@@ -1,6 +1,6 @@
-//! The accuracy example's measurements reproduce the paper's two headline
-//! ratios (paper §6.1, MODEL.md §10) on preset S, and its JSON lines parse.
-//! Ratios are measured within one run, never absolute times.
+//! The accuracy example's measurements reproduce the paper's stable-step
+//! ratio (paper §6.1, MODEL.md §10) on preset S, and its JSON lines parse.
+//! The cost ratio is printed, not asserted: times belong in benches.
 
 use bevy_cloth::lab::accuracy::{Plan, Preset, StableStep, measure, micros_per_step};
 use bevy_cloth::prelude::*;
@@ -11,7 +11,7 @@ const SEED_COST_RATIO: f64 = 2500.0 / 545.0;
 const SEED_STEP_RATIO: f32 = 1.29e-2 / 2.0e-4;
 
 #[test]
-fn preset_seed_reproduces_the_seed_ratios_within_25_percent() {
+fn preset_seed_reproduces_the_seed_step_ratio_within_25_percent() {
     let plan = Plan {
         grid: 15,
         preset: Preset::Seed,
@@ -43,8 +43,8 @@ fn preset_seed_reproduces_the_seed_ratios_within_25_percent() {
     }
     let (euler, rk4) = (&rows[0], &rows[1]);
     // The cost ratio from interleaved pairs of short timings, so a burst of
-    // load on this shared machine hits both sides of a pair alike; the
-    // median pair ratio is reported.
+    // load hits both sides of a pair alike; the median pair ratio is
+    // printed beside the paper's.
     let settings = |i| Preset::Seed.settings(ClothModel::ChoiKo, i);
     let (es, rs) = (
         settings(Integrator::ExplicitEuler),
@@ -62,10 +62,6 @@ fn preset_seed_reproduces_the_seed_ratios_within_25_percent() {
          Euler {:.3e} s, RK4 {:.3e} s",
         euler.max_stable_dt.seconds(),
         rk4.max_stable_dt.seconds()
-    );
-    assert!(
-        (cost / SEED_COST_RATIO - 1.0).abs() <= 0.25,
-        "cost ratio {cost}"
     );
     assert!(
         (step / SEED_STEP_RATIO - 1.0).abs() <= 0.25,
