@@ -69,10 +69,11 @@ pub fn self_collide(
         let lo = cell_of(a.min(b).min(c) - thickness, inv_cell);
         let hi = cell_of(a.max(b).max(c) + thickness, inv_cell);
         // A triangle stretched over many cells (an exploding cloth) is
-        // clamped to a 4×4×4 block rather than flooding the hash.
-        for i in lo[0]..=hi[0].min(lo[0] + 3) {
-            for j in lo[1]..=hi[1].min(lo[1] + 3) {
-                for k in lo[2]..=hi[2].min(lo[2] + 3) {
+        // clamped to a 4×4×4 block rather than flooding the hash; one
+        // thrown to the edge of `i32` cells saturates.
+        for i in lo[0]..=hi[0].min(lo[0].saturating_add(3)) {
+            for j in lo[1]..=hi[1].min(lo[1].saturating_add(3)) {
+                for k in lo[2]..=hi[2].min(lo[2].saturating_add(3)) {
                     entries.push((key([i, j, k]), t as u32));
                 }
             }
@@ -185,6 +186,24 @@ mod tests {
         let start = x.clone();
         let counts = self_collide(&cloth.cloth, &start, &mut x, &mut v, &w, 0.01, &mut buffers);
         assert_eq!((counts.contacts, x), (0, before));
+    }
+
+    #[test]
+    fn a_cloth_thrown_beyond_the_hash_s_range_is_hashed_without_overflow() {
+        let cloth = ClothBuilder::new(3, 3).size(2.0, 2.0).build().unwrap();
+        // Its cells lie past `i32::MAX`: the cell indices saturate.
+        let mut x: Vec<Vec3> = cloth
+            .particles
+            .positions
+            .iter()
+            .map(|p| *p + Vec3::splat(1e12))
+            .collect();
+        let start = x.clone();
+        let mut v = vec![Vec3::ZERO; 9];
+        let w = vec![1.0; 9];
+        let mut buffers = SelfCollisionBuffers::default();
+        self_collide(&cloth.cloth, &start, &mut x, &mut v, &w, 0.01, &mut buffers);
+        assert!(x.iter().all(|p| p.is_finite()));
     }
 
     #[test]
