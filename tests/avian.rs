@@ -897,6 +897,14 @@ const DISHES: [Dish; 4] = [
     ((0.15, 0.25), (0.05, 0.25, 0.9)),
 ];
 
+/// Where the bodies `entities` are (m).
+fn body_positions(app: &App, entities: &[Entity]) -> Vec<Vec3> {
+    entities
+        .iter()
+        .map(|&e| app.world().get::<Position>(e).unwrap().0)
+        .collect()
+}
+
 /// The tablecloth trick on a 41 × 41 cloth (2.5 cm grid) lying on a table
 /// with `dishes` on it, its near edge pulled along +Z by a hand that
 /// reaches `speed` m/s in 0.1 s and travels `distance` m, then 1 s more.
@@ -910,12 +918,7 @@ fn tablecloth_trick(dishes: &[Dish], speed: f32, distance: f32) -> (Vec<f32>, f3
         .iter()
         .map(|&(at, size)| dish(&mut app, at, size))
         .collect();
-    let at = |app: &App| -> Vec<Vec3> {
-        dishes
-            .iter()
-            .map(|&d| app.world().get::<Position>(d).unwrap().0)
-            .collect()
-    };
+    let at = |app: &App| body_positions(app, &dishes);
     run(&mut app, 60, cloth);
     let start = at(&app);
     let edge: Vec<u32> = ((n - 1) * n..n * n).collect();
@@ -1011,12 +1014,7 @@ fn round_table_trick(speed: f32, run_up: f32, distance: f32) -> Vec<f32> {
     .into_iter()
     .map(|(at, size)| dish(&mut app, at, size))
     .collect();
-    let at = |app: &App| -> Vec<Vec3> {
-        dishes
-            .iter()
-            .map(|&d| app.world().get::<Position>(d).unwrap().0)
-            .collect()
-    };
+    let at = |app: &App| body_positions(app, &dishes);
     run(&mut app, 60, cloth);
     let start = at(&app);
     let edge: Vec<u32> = (0..n).map(|row| row * n).collect();
