@@ -224,18 +224,13 @@ fn pull(
     mut commands: Commands,
     time: Res<Time>,
     mut hands: Query<(Entity, &mut Hand, &mut Transform)>,
-    mut cloths: Query<(&ClothAnchors, &mut ClothParticles)>,
 ) {
     for (entity, mut hand, mut transform) in &mut hands {
         let dt = time.delta_secs().min(YANK_TIME - hand.age).max(0.0);
         transform.translation += Vec3::new(0.0, -0.3 * YANK_SPEED, YANK_SPEED) * dt;
         hand.age += time.delta_secs();
         if hand.age >= YANK_TIME {
-            if let Ok((anchors, mut particles)) = cloths.get_mut(hand.cloth) {
-                for anchor in &anchors.0 {
-                    particles.unpin(anchor.particle as usize);
-                }
-            }
+            // The anchors let go: the cloth flies on with the hand's speed.
             commands.entity(hand.cloth).remove::<ClothAnchors>();
             commands.entity(entity).despawn();
         }

@@ -99,6 +99,7 @@ pub use crate::plugin::systems::check_cloth;
 pub use crate::sim::connections::Link;
 pub use crate::sim::grid::{GridCorner, GridEdge};
 pub use crate::sim::material::Fabric;
+pub use crate::sim::particles::PinOwner;
 pub use crate::sim::settings::{
     ChoiKoParams, ClothModel, ImplicitParams, Integrator, LanderParams, Parallelism, SimSettings,
     SlackStiffness, SleepSettings, SpringParams, Type2Jacobian,
@@ -134,6 +135,7 @@ pub mod prelude {
     pub use crate::sim::crease::{Crease, FoldSide};
     pub use crate::sim::guard::Divergence;
     pub use crate::sim::lod::{Detail, LodSettings};
+    pub use crate::sim::particles::PinOwner;
     pub use crate::sim::settings::{AdaptiveSubsteps, Fallback, GuardSettings};
     pub use crate::sim::wind::Wind;
     pub use crate::{

@@ -93,7 +93,7 @@ pub fn pull_and_release(model: ClothModel) -> Residual {
     let mut step = |cloth: &mut crate::plugin::builder::ClothBundle, target: Option<Vec3>| {
         let p = &mut cloth.particles;
         if let Some(t) = target {
-            p.inverse_masses[corner] = 0.0;
+            p.pin_by(corner, crate::sim::particles::PinOwner::Game);
             p.velocities[corner] = (t - p.positions[corner]) / STEP;
         }
         step_cloth(p, &cloth.connections, &settings, &[], &mut buffers, STEP);

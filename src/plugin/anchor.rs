@@ -7,6 +7,7 @@ use bevy::time::Fixed;
 use crate::plugin::components::ClothParticles;
 use crate::plugin::pose::WorldPose;
 use crate::plugin::sleep::ClothSleep;
+use crate::sim::particles::PinOwner;
 
 /// One particle tied to another entity's transform.
 #[derive(Clone, Copy, Debug, PartialEq, Reflect)]
@@ -31,9 +32,11 @@ pub struct Anchor {
 /// through its connections; unpin a particle while its anchor moves and it
 /// flies off with the anchor's velocity (a yank).
 ///
-/// A particle stops (velocity 0, still pinned) when its target disappears,
-/// when it is [`detach`](Self::detach)ed, or when the component is removed
-/// while the particle is still pinned.
+/// An anchor holds its particle's pin as [`PinOwner::Anchor`]. When it is
+/// [`detach`](Self::detach)ed, or the component is removed, it lets go of
+/// that pin: the particle flies on with the anchor's last velocity, or
+/// stops (velocity 0) where another owner (the builder, a grab, the game)
+/// still pins it. A particle whose target disappears stops, still pinned.
 ///
 /// Targets are read as [`pose`](crate::plugin::pose) explains: a root entity's own
 /// `Transform` (current even when moved in `FixedUpdate`), a child's
@@ -80,9 +83,9 @@ impl ClothAnchors {
         });
     }
 
-    /// Removes the anchor of `particle`. At the next step the particle is
-    /// stopped if still pinned; unpin it with [`Particles::unpin`](crate::sim::particles::Particles::unpin) to
-    /// let it fall (or fly on with the anchor's last velocity).
+    /// Removes the anchor of `particle`. At the next step the anchor lets go
+    /// of its pin: the particle flies on with the anchor's last velocity
+    /// (m/s), or stops if another owner still pins it.
     pub fn detach(&mut self, particle: u32) {
         let before = self.0.len();
         self.0.retain(|a| a.particle != particle);
@@ -115,7 +118,7 @@ pub(crate) fn follow_anchors(
         }
         let ClothAnchors(anchors, detached) = &mut *anchors;
         for p in detached.drain(..) {
-            stop_if_pinned(&mut particles, p);
+            let_go(&mut particles, p);
         }
         for anchor in anchors.iter_mut() {
             anchor.goal = None;
@@ -141,7 +144,7 @@ pub(crate) fn follow_anchors(
             if !goal.is_finite() {
                 continue;
             }
-            particles.inverse_masses[p] = 0.0;
+            particles.pin_by(p, PinOwner::Anchor);
             particles.velocities[p] = (goal - particles.positions[p]) / dt;
             anchor.goal = Some(goal);
         }
@@ -198,14 +201,22 @@ fn stop_if_pinned(particles: &mut ClothParticles, p: u32) {
     }
 }
 
-/// When `ClothAnchors` is removed, its still-pinned particles stop.
+/// Lets go of the anchor's pin of particle `p`: free, it flies on with the
+/// anchor's last velocity; still pinned by another owner, it stops.
+fn let_go(particles: &mut ClothParticles, p: u32) {
+    particles.release_pin(p as usize, PinOwner::Anchor);
+    stop_if_pinned(particles, p);
+}
+
+/// When `ClothAnchors` is removed, its particles are let go as
+/// [`ClothAnchors::detach`] lets one go.
 pub(crate) fn stop_on_remove(
     trigger: On<Remove<ClothAnchors>>,
     mut cloths: Query<(&ClothAnchors, &mut ClothParticles)>,
 ) {
     if let Ok((anchors, mut particles)) = cloths.get_mut(trigger.entity) {
         for anchor in &anchors.0 {
-            stop_if_pinned(&mut particles, anchor.particle);
+            let_go(&mut particles, anchor.particle);
         }
     }
 }

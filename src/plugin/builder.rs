@@ -12,6 +12,7 @@ use crate::plugin::components::ClothParticles;
 use crate::plugin::components::ClothSettings;
 use crate::plugin::material::ClothMaterial;
 pub use crate::sim::grid::{Grid, GridCorner, GridEdge, MAX_PARTICLES};
+use crate::sim::particles::PinOwner;
 
 /// How the cloth's mass is given (kg/m² or kg).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -257,7 +258,7 @@ impl ClothBuilder {
         let mut particles = ClothParticles::new(positions, masses);
         for pin in &self.pins {
             for p in resolve(&grid, pin)? {
-                particles.pin(p as usize);
+                particles.pin_by(p as usize, PinOwner::Builder);
             }
         }
         Ok(ClothBundle {

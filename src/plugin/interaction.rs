@@ -28,6 +28,7 @@ use bevy::time::Fixed;
 use crate::plugin::components::ClothForces;
 use crate::plugin::components::ClothParticles;
 use crate::plugin::events::{ClothGrabbed, ClothReleased};
+use crate::sim::particles::PinOwner;
 
 /// How a grab moves its particle.
 #[derive(Clone, Copy, Debug, PartialEq, Reflect)]
@@ -55,9 +56,6 @@ pub struct Grab {
     pub target: Vec3,
     /// How.
     pub mode: GrabMode,
-    /// Whether the particle was pinned before a kinematic grab took it (so
-    /// release leaves it pinned).
-    was_pinned: Option<bool>,
     /// Whether the grab has acted (and [`ClothGrabbed`] was triggered).
     held: bool,
 }
@@ -67,10 +65,10 @@ pub struct Grab {
 #[reflect(Component)]
 pub struct ClothGrabs {
     grabs: Vec<Grab>,
-    /// Released grabs that had acted, to undo and report at the next step:
-    /// (particle, pinned before a kinematic grab).
+    /// The particles of released grabs that had acted, to let go and
+    /// report at the next step.
     #[reflect(ignore)]
-    released: Vec<(u32, Option<bool>)>,
+    released: Vec<u32>,
 }
 
 impl ClothGrabs {
@@ -81,7 +79,6 @@ impl ClothGrabs {
             particle,
             target,
             mode,
-            was_pinned: None,
             held: false,
         });
     }
@@ -117,14 +114,15 @@ impl ClothGrabs {
         }
     }
 
-    /// Lets go of `particle` (a kinematically held one gets its mass back
-    /// at the next step unless it was pinned before).
+    /// Lets go of `particle`: at the next step a kinematic grab lets go of
+    /// its pin ([`PinOwner::Grab`]), and the particle gets its mass back
+    /// unless another owner (the builder, an anchor, the game) pins it too.
     pub fn release(&mut self, particle: u32) {
         let mut released = Vec::new();
         self.grabs.retain(|g| {
             if g.particle == particle {
                 if g.held {
-                    released.push((g.particle, g.was_pinned));
+                    released.push(g.particle);
                 }
                 false
             } else {
@@ -138,7 +136,7 @@ impl ClothGrabs {
     pub fn release_all(&mut self) {
         for g in std::mem::take(&mut self.grabs) {
             if g.held {
-                self.released.push((g.particle, g.was_pinned));
+                self.released.push(g.particle);
             }
         }
     }
@@ -199,16 +197,13 @@ pub(crate) fn apply_grabs(
         }
         let n = particles.len();
         let ClothGrabs { grabs, released } = &mut *grabs;
-        for (p, was_pinned) in released.drain(..) {
-            match was_pinned {
-                // A pin stays where the grab left it, at rest.
-                Some(true) => {
-                    particles.pin(p as usize);
-                }
-                Some(false) => {
-                    particles.unpin(p as usize);
-                }
-                None => {}
+        for p in released.drain(..) {
+            // Free, it flies on with the grab's velocity; a pin another
+            // owner holds stays where the grab left it, at rest.
+            let i = p as usize;
+            if particles.is_pinned_by(i, PinOwner::Grab) && particles.release_pin(i, PinOwner::Grab)
+            {
+                particles.velocities[i] = Vec3::ZERO;
             }
             commands.trigger(ClothReleased {
                 entity,
@@ -229,10 +224,7 @@ pub(crate) fn apply_grabs(
             }
             match g.mode {
                 GrabMode::Kinematic => {
-                    if g.was_pinned.is_none() {
-                        g.was_pinned = Some(particles.is_pinned(p));
-                    }
-                    particles.inverse_masses[p] = 0.0;
+                    particles.pin_by(p, PinOwner::Grab);
                     particles.velocities[p] = (g.target - particles.positions[p]) / dt;
                 }
                 GrabMode::Spring { stiffness, damping } => {

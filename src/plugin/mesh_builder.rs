@@ -9,6 +9,7 @@ use crate::plugin::builder::{ClothBuilder, ClothBundle, Mass, check_common};
 use crate::plugin::components::{Cloth, ClothConnections, ClothParticles, ClothSettings};
 use crate::plugin::material::ClothMaterial;
 use crate::plugin::mesh_cloth::{MeshLayout, float_attribute, marked_particles, painted_particles};
+use crate::sim::particles::PinOwner;
 
 /// A pin request, resolved against the welded mesh.
 enum Pin {
@@ -196,7 +197,7 @@ impl MeshClothBuilder {
         let mut particles = ClothParticles::new(positions, masses);
         for pin in &self.pins {
             for p in self.resolve(&shape, pin)? {
-                particles.pin(p as usize);
+                particles.pin_by(p as usize, PinOwner::Builder);
             }
         }
         Ok(ClothBundle {

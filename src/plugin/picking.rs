@@ -215,7 +215,7 @@ fn press(
             if particles.is_pinned(i) {
                 particles.unpin(i);
             } else {
-                particles.pin(i);
+                particles.pin_by(i, crate::sim::particles::PinOwner::Picking);
             }
         }
         PointerButton::Middle => {}

@@ -16,6 +16,7 @@ use crate::plugin::components::ClothParticles;
 use crate::plugin::mesh_cloth::{MeshLayout, float_attribute};
 use crate::plugin::sleep::ClothSleep;
 use crate::plugin::tether::ClothTethers;
+use crate::sim::particles::PinOwner;
 use crate::sim::skin::{Backstop, Influence, limit_distance, push_out_of_capsule, skin};
 
 /// A `Float32` vertex attribute named `"Cloth_Freedom"` for
@@ -308,7 +309,7 @@ pub(crate) fn follow_skins(
         }
         for i in 0..n {
             if skin_of.freedom[i] <= 0.0 {
-                p.pin(i);
+                p.pin_by(i, PinOwner::Skin);
                 p.velocities[i] = (targets.positions[i] - p.positions[i]) / dt;
             }
         }

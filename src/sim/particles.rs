@@ -10,6 +10,11 @@ use bevy::reflect::Reflect;
 /// A particle is pinned when its inverse mass is 0: the integrators give it
 /// zero acceleration, so it keeps its velocity (0 for a fixed pin, the
 /// anchor's velocity for an anchored one).
+///
+/// Each pin has owners ([`PinOwner`]): the builder, an anchor, a grab, a
+/// skin, the player's pointer or the game. A particle stays pinned while
+/// any owner holds it, so one letting go ([`release_pin`](Self::release_pin):
+/// a grab released, an anchor detached) leaves another's pin in place.
 #[derive(Clone, Debug, Default, PartialEq, Reflect)]
 pub struct Particles {
     /// World-space positions in m.
@@ -20,6 +25,32 @@ pub struct Particles {
     pub inverse_masses: Vec<f32>,
     /// Masses in kg, kept so that an unpinned particle gets its mass back.
     pub masses: Vec<f32>,
+    /// Who holds each pinned particle: a [`PinOwner`] bit set (empty for a
+    /// free particle, or one whose inverse mass was written directly).
+    pins: Vec<u8>,
+}
+
+/// Who pinned a particle ([`Particles::pin_by`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Reflect)]
+pub enum PinOwner {
+    /// The cloth's builder (`ClothBuilder::pin`, a mesh's pin attribute).
+    Builder,
+    /// An anchor (`ClothAnchors`).
+    Anchor,
+    /// A kinematic grab (`ClothGrabs`).
+    Grab,
+    /// A skin, for its particles of freedom 0 (`ClothSkin`).
+    Skin,
+    /// The player's pointer (`ClothPicking`'s secondary button).
+    Picking,
+    /// Game code ([`Particles::pin`]).
+    Game,
+}
+
+impl PinOwner {
+    fn bit(self) -> u8 {
+        1 << self as u8
+    }
 }
 
 impl Particles {
@@ -29,6 +60,7 @@ impl Particles {
         Self {
             velocities: vec![Vec3::ZERO; positions.len()],
             inverse_masses: masses.iter().map(|m| 1.0 / m).collect(),
+            pins: vec![0; positions.len()],
             positions,
             masses,
         }
@@ -44,8 +76,8 @@ impl Particles {
         self.positions.is_empty()
     }
 
-    /// Pins particle `i` where it is, at rest. Returns `false` if `i` is out
-    /// of range.
+    /// Pins particle `i` where it is, at rest, for the game
+    /// ([`PinOwner::Game`]). Returns `false` if `i` is out of range.
     ///
     /// ```
     /// # use bevy::prelude::*;
@@ -58,22 +90,61 @@ impl Particles {
     /// }
     /// ```
     pub fn pin(&mut self, i: usize) -> bool {
+        self.pin_by(i, PinOwner::Game)
+    }
+
+    /// Pins particle `i` where it is, at rest, for `owner` (it may hold a
+    /// pin others hold too). A particle pinned with no owner (its inverse
+    /// mass written as 0 directly) counts as the game's. Returns `false` if
+    /// `i` is out of range.
+    pub fn pin_by(&mut self, i: usize, owner: PinOwner) -> bool {
         if i >= self.len() {
             return false;
         }
+        self.pins.resize(self.len(), 0);
+        if self.pins[i] == 0 && self.inverse_masses[i] == 0.0 {
+            self.pins[i] = PinOwner::Game.bit();
+        }
+        self.pins[i] |= owner.bit();
         self.inverse_masses[i] = 0.0;
         self.velocities[i] = Vec3::ZERO;
         true
     }
 
-    /// Frees particle `i`, restoring its mass. Returns `false` if `i` is out
-    /// of range.
+    /// Lets go of `owner`'s pin of particle `i`: it gets its mass back
+    /// (keeping its velocity, m/s) if no other owner holds it, and stays
+    /// pinned otherwise. A particle `owner` does not hold is left as it is.
+    /// Returns whether `i` is pinned afterwards (`false` when out of range).
+    pub fn release_pin(&mut self, i: usize, owner: PinOwner) -> bool {
+        if !self.is_pinned_by(i, owner) {
+            return self.is_pinned(i);
+        }
+        self.pins[i] &= !owner.bit();
+        if self.pins[i] == 0 {
+            self.inverse_masses[i] = 1.0 / self.masses[i];
+        }
+        self.is_pinned(i)
+    }
+
+    /// Frees particle `i` from every owner's pin, restoring its mass (its
+    /// velocity, m/s, is kept). An anchor or a skin pins its particle again
+    /// at its next step; detach the anchor to free it for good. Returns
+    /// `false` if `i` is out of range.
     pub fn unpin(&mut self, i: usize) -> bool {
         if i >= self.len() {
             return false;
         }
+        if let Some(pins) = self.pins.get_mut(i) {
+            *pins = 0;
+        }
         self.inverse_masses[i] = 1.0 / self.masses[i];
         true
+    }
+
+    /// Whether `owner` holds a pin of particle `i` (`false` when out of
+    /// range).
+    pub fn is_pinned_by(&self, i: usize, owner: PinOwner) -> bool {
+        self.pins.get(i).is_some_and(|&b| b & owner.bit() != 0) && self.is_pinned(i)
     }
 
     /// Whether particle `i` is pinned (`false` when out of range).
@@ -131,5 +202,43 @@ mod tests {
         assert!(p.unpin(1));
         assert_eq!(p.inverse_masses[1], 0.5);
         assert!(!p.pin(2) && !p.unpin(7) && !p.is_pinned(9));
+    }
+
+    #[test]
+    fn a_pin_stays_while_any_owner_holds_it() {
+        let mut p = Particles::new(vec![Vec3::ZERO; 3], vec![0.5; 3]);
+        assert!(p.pin_by(0, PinOwner::Builder) && p.pin_by(0, PinOwner::Grab));
+        assert!(p.release_pin(0, PinOwner::Grab), "the builder's pin stays");
+        assert!(p.is_pinned_by(0, PinOwner::Builder) && !p.is_pinned_by(0, PinOwner::Grab));
+        // Letting go of a pin one does not hold changes nothing.
+        assert!(p.release_pin(0, PinOwner::Anchor));
+        assert!(!p.release_pin(0, PinOwner::Builder));
+        assert_eq!(p.inverse_masses[0], 2.0);
+        // A released particle keeps its velocity.
+        p.pin_by(1, PinOwner::Anchor);
+        p.velocities[1] = Vec3::X;
+        assert!(!p.release_pin(1, PinOwner::Anchor));
+        assert_eq!(p.velocities[1], Vec3::X);
+        // `unpin` frees it from every owner.
+        p.pin_by(2, PinOwner::Skin);
+        p.pin(2);
+        assert!(p.unpin(2) && !p.is_pinned(2) && !p.is_pinned_by(2, PinOwner::Skin));
+        assert!(!p.pin_by(3, PinOwner::Game) && !p.release_pin(3, PinOwner::Game));
+    }
+
+    #[test]
+    fn a_pin_written_into_the_inverse_mass_counts_as_the_game_s() {
+        let mut p = Particles::new(vec![Vec3::ZERO; 2], vec![0.5; 2]);
+        p.inverse_masses[0] = 0.0;
+        p.pin_by(0, PinOwner::Grab);
+        assert!(p.release_pin(0, PinOwner::Grab));
+        assert!(p.is_pinned_by(0, PinOwner::Game));
+        // Resized by hand past its owners: still answers, never panics.
+        p.positions.push(Vec3::Y);
+        p.velocities.push(Vec3::ZERO);
+        p.masses.push(1.0);
+        p.inverse_masses.push(1.0);
+        assert!(!p.is_pinned_by(2, PinOwner::Game) && !p.release_pin(2, PinOwner::Game));
+        assert!(p.pin_by(2, PinOwner::Anchor) && p.is_pinned_by(2, PinOwner::Anchor));
     }
 }
