@@ -11,6 +11,7 @@ use bevy::prelude::{
 use bevy::tasks::ComputeTaskPool;
 use std::sync::{Arc, Mutex, PoisonError};
 
+use crate::sim::team;
 use crate::sim::workers::{Pool, Workers};
 use bevy::time::Fixed;
 
@@ -19,7 +20,7 @@ use crate::plugin::components::ClothConnections;
 use crate::plugin::components::ClothParticles;
 use crate::plugin::components::{ClothDefaults, ClothSettings};
 use bevy::platform::time::Instant;
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
 
 use bevy::ecs::query::QueryData;
 
@@ -199,6 +200,45 @@ impl Workers for ComputePool {
     }
 }
 
+/// Runs `step` on every cloth of `cloths`, in parallel on Bevy's compute
+/// pool. Bevy's parallel iteration runs one item after another when the
+/// pool has a single thread, as on a 2-core machine (where Bevy gives the
+/// other core to its I/O and async pools); there the calling thread and the
+/// pool's thread take the cloths in turns from a shared counter, so two
+/// cores step cloths whenever the pool's thread is free. Each cloth's step
+/// is the same whichever thread runs it.
+fn for_each_cloth<'w, 's>(
+    cloths: &mut Query<'w, 's, StepQuery>,
+    step: impl Fn(StepQueryItem<'_, '_>) + Send + Sync + Clone,
+) {
+    let pool = ComputeTaskPool::try_get().filter(|p| p.thread_num() == 1 && team::THREADS);
+    let Some(pool) = pool else {
+        cloths.par_iter_mut().for_each(step);
+        return;
+    };
+    let items: Vec<Mutex<Option<StepQueryItem<'_, '_>>>> = cloths
+        .iter_mut()
+        .map(|item| Mutex::new(Some(item)))
+        .collect();
+    let next = AtomicUsize::new(0);
+    let work = || {
+        while let Some(slot) = items.get(next.fetch_add(1, Ordering::Relaxed)) {
+            let item = slot.lock().unwrap_or_else(PoisonError::into_inner).take();
+            if let Some(item) = item {
+                step(item);
+            }
+        }
+    };
+    if items.len() < 2 {
+        work();
+        return;
+    }
+    pool.scope(|s| {
+        s.spawn(async { work() });
+        work();
+    });
+}
+
 /// The compute pool, once Bevy has made one, as a step's [`Pool`].
 fn compute_pool(pool: &mut Pool) -> &Pool {
     if pool.0.is_none()
@@ -243,7 +283,7 @@ pub(crate) fn step_cloths(
     let everything = defaults.is_changed() || stopped;
     let totals: [AtomicU64; 4] = Default::default();
     let feedback = Mutex::new(Vec::new());
-    cloths.par_iter_mut().for_each(|mut item| {
+    for_each_cloth(&mut cloths, |mut item| {
         let base = item.settings.as_deref().map_or(&defaults.0, |own| &own.0);
         let material = item.material.as_deref().copied().unwrap_or_default();
         let settings = &*material.settings(base, item.cloth.spacing());
