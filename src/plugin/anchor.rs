@@ -29,8 +29,8 @@ pub struct Anchor {
 /// particle is pinned (inverse mass 0) and given, every fixed step, the
 /// velocity (m/s) that brings it to its target point by the step's end,
 /// where it is then placed exactly. The cloth feels the anchor's motion
-/// through its connections; unpin a particle while its anchor moves and it
-/// flies off with the anchor's velocity (a yank).
+/// through its connections; detach a particle while its anchor moves and
+/// it flies off with the anchor's velocity (a yank).
 ///
 /// An anchor holds its particle's pin as [`PinOwner::Anchor`]. When it is
 /// [`detach`](Self::detach)ed, or the component is removed, it lets go of
