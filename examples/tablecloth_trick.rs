@@ -275,9 +275,8 @@ fn keys(
         return;
     }
     for (cloth, particles, mut grabs) in &mut cloths {
-        // The hand takes the whole left edge (the first column) where it
-        // lies.
-        for p in (0..N).map(|row| row * N) {
+        // The hand takes the whole left edge where it lies.
+        for p in edge() {
             grabs.grab(p, particles.positions[p as usize], GrabMode::Kinematic);
         }
         commands.spawn(Hand {
@@ -288,6 +287,11 @@ fn keys(
             stopped: 0.0,
         });
     }
+}
+
+/// The particles the hand holds: the cloth's left edge (its first column).
+fn edge() -> impl Iterator<Item = u32> {
+    (0..N).map(|row| row * N)
 }
 
 /// Moves the hand: up to its speed over its run-up, for its distance; then
@@ -309,7 +313,10 @@ fn pull(
         if hand.travelled >= distance {
             hand.stopped += dt;
             if hand.stopped >= HOLD {
-                grabs.release_all();
+                // It lets go of its own grabs only: a player's stay.
+                for p in edge() {
+                    grabs.release(p);
+                }
                 commands.entity(entity).despawn();
             }
             continue;
@@ -319,6 +326,8 @@ fn pull(
         let moves: Vec<(u32, Vec3)> = grabs
             .grabs()
             .iter()
+            // The hand's own grabs: the left edge's particles.
+            .filter(|g| g.particle % N == 0)
             .map(|g| (g.particle, g.target - Vec3::X * step))
             .collect();
         for (particle, target) in moves {
