@@ -29,7 +29,9 @@
 //!   applied to it in [`ClothSystems::Writeback`], linear and angular about
 //!   its centre of mass, through avian's `Forces`; avian's step in
 //!   `FixedPostUpdate` then moves it. Kinematic and static bodies are
-//!   one-way.
+//!   one-way. The shift out of the cloth that the cloth's overlap with a
+//!   body calls for ([`ContactImpulse::shift`](crate::plugin::collision::ContactImpulse::shift)) is made to its `Position`, not
+//!   to its velocity.
 //!
 //! The bridge is a plugin of its own rather than part of `ClothPlugin`, so
 //! that a game chooses it (and its settings) where it adds avian, and a
@@ -140,7 +142,8 @@ impl Plugin for ClothAvianPlugin {
                 feed_colliders
                     .run_if(any_with_component::<Collider>)
                     .in_set(ClothColliderSources),
-                push_bodies
+                (push_bodies, separate_bodies)
+                    .chain()
                     .run_if(|i: Res<ClothContactImpulses>| !i.is_empty())
                     .in_set(ClothSystems::Writeback),
             ),
@@ -406,5 +409,30 @@ fn push_bodies(
         forces.apply_linear_impulse(impulse.linear + weight * dt);
         forces.apply_force(-weight);
         forces.apply_angular_impulse(angular);
+    }
+}
+
+/// [`ClothSystems::Writeback`], after [`push_bodies`]: each dynamic body's
+/// shift out of the cloth it overlaps ([`ContactImpulse::shift`]), made to
+/// its `Position` and not to its velocity (a split impulse).
+fn separate_bodies(
+    _main: crate::plugin::schedule::MainThread,
+    impulses: Res<ClothContactImpulses>,
+    colliders: Query<&ColliderOf>,
+    mut bodies: Query<(&RigidBody, &mut Position), Without<RigidBodyDisabled>>,
+    mut moved: Local<HashSet<Entity>>,
+) {
+    moved.clear();
+    for (entity, impulse) in impulses.iter() {
+        if impulse.shift == Vec3::ZERO || !impulse.shift.is_finite() {
+            continue;
+        }
+        let body = colliders.get(entity).map_or(entity, |of| of.body);
+        if let Ok((kind, mut position)) = bodies.get_mut(body)
+            && kind.is_dynamic()
+            && moved.insert(body)
+        {
+            position.0 += impulse.shift;
+        }
     }
 }

@@ -102,6 +102,8 @@ pub(crate) struct Carried {
     /// Linear (m/s) and angular (rad/s) velocity change.
     linear: Vec3,
     angular: Vec3,
+    /// The shift (m) out of the cloth's overlap made then.
+    shift: Vec3,
     /// From when (a fraction of the step) it moves so.
     from: f32,
 }
@@ -152,6 +154,9 @@ impl Feedback {
                 let time = (t - k.from).max(0.0) * step;
                 linear += k.linear * time;
                 angular += k.angular * time;
+                if t >= k.from {
+                    linear += k.shift;
+                }
             }
             let turn = Quat::from_scaled_axis(angular);
             let at = Vec3::from(pose.translation);
@@ -415,13 +420,31 @@ impl ContactHook for SceneContacts<'_> {
         } = &mut *self.feedback;
         for &(collider, b) in sources.iter() {
             let [linear, angular] = contacts.body_change(b as usize);
-            if linear != Vec3::ZERO || angular != Vec3::ZERO {
+            let shift = contacts.body_separation(b as usize);
+            if [linear, angular, shift].iter().any(|&m| m != Vec3::ZERO) {
                 carried.push(Carried {
                     collider,
                     linear,
                     angular,
+                    shift,
                     from: at.to,
                 });
+            }
+        }
+        // A body's shift is reported once, with its first collider.
+        for k in 0..self.feedback.sources.len() {
+            let (collider, b) = self.feedback.sources[k];
+            let shift = contacts.body_separation(b as usize);
+            let first = !self.feedback.sources[..k].iter().any(|s| s.1 == b);
+            if first
+                && shift != Vec3::ZERO
+                && self
+                    .scene
+                    .colliders
+                    .get(collider)
+                    .is_some_and(|c| c.feedback)
+            {
+                self.feedback.entry(collider).shift += shift;
             }
         }
         for (contact, impulse, at) in contacts.impulses() {

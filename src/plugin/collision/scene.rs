@@ -341,6 +341,13 @@ pub struct ContactImpulse {
     /// The velocity (m/s) of the cloth where it touched the collider,
     /// averaged with each contact's impulse as weight.
     pub cloth_velocity: Vec3,
+    /// The shift (m) out of the cloth that the cloth's overlap with the
+    /// collider's body calls for, to be made to the body's position with
+    /// no change to its velocity (a split impulse: the cloth's contact
+    /// springs take only as much of an overlap as their load explains).
+    /// Reported with one collider of the body; of several cloths, the
+    /// larger shift.
+    pub shift: Vec3,
     /// The weight of that average: the sum of the contacts' impulse
     /// magnitudes, N·s.
     weight: f32,
@@ -361,6 +368,7 @@ impl ContactImpulse {
             angular: point.cross(impulse),
             cloth_velocity: velocity,
             weight: impulse.length(),
+            ..Self::default()
         };
     }
 }
@@ -375,6 +383,11 @@ impl std::ops::AddAssign for ContactImpulse {
                 (self.cloth_velocity * self.weight + other.cloth_velocity * other.weight) / weight;
         }
         self.weight = weight;
+        // Two cloths under one body each see its overlap: the larger shift
+        // takes both out.
+        if other.shift.length() > self.shift.length() {
+            self.shift = other.shift;
+        }
     }
 }
 

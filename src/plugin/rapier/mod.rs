@@ -30,8 +30,10 @@
 //! - **Two-way coupling.** The impulses the cloth's contacts give a dynamic
 //!   body over a step are added to its `ExternalImpulse` in
 //!   [`ClothSystems::Writeback`], linear and angular about its centre of
-//!   mass; rapier applies them at its next sync. Kinematic and fixed
-//!   bodies are one-way.
+//!   mass; rapier applies them at its next sync. The move out of the
+//!   cloth its overlap calls for ([`ContactImpulse::shift`](crate::plugin::collision::ContactImpulse::shift))
+//!   is made to its position in rapier's body set, leaving its velocity
+//!   alone. Kinematic and fixed bodies are one-way.
 //!
 //! bevy_rapier steps in `PostUpdate` unless told otherwise; with
 //! `RapierPhysicsPlugin::in_fixed_schedule()` it steps in `FixedUpdate`,
@@ -143,7 +145,8 @@ impl Plugin for ClothRapierPlugin {
                     feed_colliders
                         .run_if(any_with_component::<RapierContextColliders>)
                         .in_set(ClothColliderSources),
-                    push_bodies
+                    (push_bodies, separate_bodies)
+                        .chain()
                         .run_if(|i: Res<ClothContactImpulses>, lifted: Res<HeldUp>| {
                             !(i.is_empty() && lifted.0.is_empty())
                         })
@@ -423,6 +426,41 @@ fn push_bodies(
         }
         if force != ExternalForce::default() {
             body.try_insert(force);
+        }
+    }
+}
+
+/// [`ClothSystems::Writeback`], after [`push_bodies`]: each dynamic body's
+/// shift out of the cloth it overlaps ([`ContactImpulse::shift`]), made to
+/// its position in rapier's body set and not to its velocity (a split
+/// impulse).
+///
+/// [`ContactImpulse::shift`]: crate::plugin::collision::ContactImpulse::shift
+fn separate_bodies(
+    _main: MainThread,
+    impulses: Res<ClothContactImpulses>,
+    mut contexts: Query<(&RapierContextColliders, &mut RapierRigidBodySet)>,
+    mut moved: Local<HashSet<Entity>>,
+) {
+    moved.clear();
+    for (entity, impulse) in impulses.iter() {
+        if impulse.shift == Vec3::ZERO || !impulse.shift.is_finite() {
+            continue;
+        }
+        for (colliders, mut set) in contexts.iter_mut() {
+            let Some(body_entity) = colliders.collider_parent(&set, entity) else {
+                continue;
+            };
+            let Some(&handle) = set.entity2body().get(&body_entity) else {
+                continue;
+            };
+            if let Some(body) = set.bodies.get_mut(handle)
+                && body.is_dynamic()
+                && moved.insert(body_entity)
+            {
+                let translation = body.translation() + impulse.shift;
+                body.set_translation(translation, true);
+            }
         }
     }
 }

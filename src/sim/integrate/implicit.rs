@@ -832,3 +832,4 @@ pub mod contacts;
 mod halves;
 mod mesh_coarse;
 mod operator;
+mod separate;

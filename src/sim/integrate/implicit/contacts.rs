@@ -58,11 +58,30 @@
 //! slides (the next pass judges them without it). The caller applies the
 //! impulses ([`ContactBuffers::impulses`]) to the body after the step.
 //!
+//! **Overlap with a body.** A particle the cloth lets give way (a
+//! hammock's) found inside a body is brought out at up to
+//! [`DEPENETRATION_SPEED`]: out in one step, it would fling the body. A
+//! particle lying on a fixed surface under the body cannot give way, and
+//! there an overlap taken out as velocity turns into motion that outlasts
+//! it: a plate tipped by a tablecloth pulled from under it is pushed out at
+//! its sunk rim, overshoots to the other, and rocks faster each step until
+//! it is thrown. So the spring of such a contact takes only as much of the
+//! overlap as the contact's last load explains (the depth at which it
+//! carries that load), and the rest moves the body out, at up to
+//! [`SEPARATION_SPEED`], by its position alone
+//! ([`ContactBuffers::body_separation`]: a split impulse, shifting the body
+//! without turning it), which the caller makes. A sliding contact of a body
+//! whose Coulomb bound was set in a pass with a larger normal force than
+//! the step ends with takes the smaller bound, and the step is solved
+//! again.
+//!
 //! **A cloth lying on a surface under a body.** A particle lying on a fixed
 //! surface (touching it, within [`SHEET_GAP`]) is a piece of sheet between
 //! that surface and any body touching it from the other side, and the body
 //! can only press it against the surface: its contact with the body takes
-//! the surface's normal, reversed, whatever the body's nearest point says.
+//! the surface's normal, reversed, whatever the body's nearest point says,
+//! and its contact with the surface is held whether or not the forces on
+//! it press it there yet (the body's weight presses it within the solve).
 //! A plate's rim, sunk or tipped into the cloth's thickness, faces an
 //! oncoming particle half sideways: a tablecloth yanked from under the
 //! plate would push it along, and be held back by it, rather than slide
@@ -78,6 +97,7 @@ use bevy::math::Vec3;
 
 use super::bodies::Coupling;
 pub use super::bodies::SolveBody;
+use super::separate::{Overlap, push_out};
 
 /// A particle touching a collider, or about to within the step.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -161,9 +181,15 @@ pub const SHEET_GAP: f32 = 1e-3;
 /// particle, keeps its own normal (module docs).
 pub const SHEET_FACING: f32 = 0.05;
 
-/// The fastest (m/s) a particle found inside a free body is brought out
-/// of it (module docs).
+/// The fastest (m/s) a particle the cloth lets give way is brought out of a
+/// free body it is found inside (module docs).
 pub const DEPENETRATION_SPEED: f32 = 1.0;
+
+/// The fastest (m/s) a free body pressing the cloth onto a fixed surface is
+/// moved out of it (module docs): a wrinkle of a tablecloth yanked from
+/// under a plate would otherwise lift the plate clear of the cloth in one
+/// step and drop it back, tipped, onto the sliding cloth.
+pub const SEPARATION_SPEED: f32 = 0.1;
 
 /// The speed (m/s) below which friction holds rather than slides (module
 /// docs): the fastest a particle whose load is within the friction cone can
@@ -200,9 +226,12 @@ struct Held {
     mass: f32,
     /// The particle's position at the start of the step, m.
     start: Vec3,
-    /// The contact's gap (m, [`SolveContact::gap`]), or against a free body
-    /// the part of an overlap the step takes out.
+    /// The contact's gap (m, [`SolveContact::gap`]), or against a free
+    /// body the part of it its spring takes (module docs).
     gap: f32,
+    /// The part of an overlap with a free body its spring leaves to moving
+    /// the body out, m (0 when none).
+    overlap: f32,
     /// The displacement the step gives the particle besides `γ Δv`, m.
     displacement: Vec3,
     /// How far into the surface that displacement would take it, m (the
@@ -243,6 +272,7 @@ pub struct ContactBuffers {
     /// Each particle's normal force in the last step (N; 0 when free): of
     /// its own contact, and of its edge contact.
     load: Vec<[f32; 2]>,
+
     /// Whether any particle is held now (so `hold` needs clearing).
     pub(super) any: bool,
     /// This step's held contacts.
@@ -270,6 +300,14 @@ pub struct ContactBuffers {
     /// Scratch of [`finish`](Self::finish): the velocity changes (m/s) its
     /// stops gave particles after the solve.
     stops: Vec<(u32, Vec3)>,
+    /// Scratch of [`finish`](Self::finish): the contacts whose overlap moves
+    /// their body out, with the body, one body's, and their pushes.
+    overlaps: Vec<(u32, Overlap)>,
+    scratch: Vec<Overlap>,
+    pushes: Vec<f32>,
+    /// Each body's shift (m) out of the cloth after the last solve, by
+    /// index into `bodies`.
+    separations: Vec<Vec3>,
 }
 
 /// The velocity change (m/s) `stops` gave particle `p`.
@@ -316,10 +354,20 @@ impl ContactBuffers {
         self.changes.get(body).copied().unwrap_or([Vec3::ZERO; 2])
     }
 
+    /// The shift (m) out of the cloth the last solve's overlaps call for of
+    /// body `body` (an index into [`bodies`](Self::bodies)), to be made to
+    /// its position without any change to its velocity; zero for a body
+    /// that does not overlap the cloth more than its load explains (module
+    /// docs).
+    pub fn body_separation(&self, body: usize) -> Vec3 {
+        self.separations.get(body).copied().unwrap_or(Vec3::ZERO)
+    }
+
     /// Forgets every hold (a reset, a teleport).
     pub fn clear(&mut self) {
         self.impulses.clear();
         self.changes.clear();
+        self.separations.clear();
         self.hold.clear();
         self.load.clear();
         self.any = false;
@@ -344,6 +392,7 @@ impl ContactBuffers {
         self.held.clear();
         self.impulses.clear();
         self.changes.clear();
+        self.separations.clear();
         self.factors = (alpha, beta, h);
         if self.list.is_empty() {
             self.clear();
@@ -382,18 +431,13 @@ impl ContactBuffers {
                 .get(c.body as usize)
                 .filter(|b| b.is_usable())
                 .map(|b| (c.body, x[p] - b.centre, b));
-            // A particle deep inside a free body (its engine pushed the body
-            // into the cloth between steps: a light ball squeezed by a heavy
-            // one) comes out at most at DEPENETRATION_SPEED: out in one
-            // step, it would fling the body.
-            let gap = match body {
-                Some(_) => c.gap.max(-DEPENETRATION_SPEED * h),
-                None => c.gap,
-            };
-            let reach = -gap - (d - h * c.velocity).dot(c.normal);
+            let reach = -c.gap - (d - h * c.velocity).dot(c.normal);
             // Outside and staying outside without the contact (its motion
-            // and the forces carry it clear): not held.
-            if gap >= 0.0 && -reach - h * h * w * pressure >= 0.0 {
+            // and the forces carry it clear): not held. Unless it lies on a
+            // fixed surface under a body, whose weight presses it within
+            // the solve.
+            let under_body = body.is_none() && self.touches[p].body && c.gap <= SHEET_GAP;
+            if c.gap >= 0.0 && -reach - h * h * w * pressure >= 0.0 && !under_body {
                 continue;
             }
             let relative = v[p] - c.velocity;
@@ -433,12 +477,27 @@ impl ContactBuffers {
                 None => 1.0,
             }
             .clamp(1.0, BODY_STIFFENING);
+            let k = stiffening * KAPPA / (w * gamma * gamma);
+            // Against a free body pressing the particle onto a fixed
+            // surface the spring takes as much of an overlap as its last
+            // load explains (the depth at which it carries that load), and
+            // the rest moves the body out (`separate.rs`). Against one the
+            // cloth can give way to, it takes the overlap out at up to
+            // DEPENETRATION_SPEED: out in one step, it would fling the body
+            // (a light ball squeezed into the cloth by a heavy one).
+            let gap = match body {
+                Some(_) if self.touches[p].support != Vec3::ZERO => c.gap.max(-load / k),
+                Some(_) => c.gap.max(-DEPENETRATION_SPEED * h),
+                None => c.gap,
+            };
+            let reach = reach + c.gap - gap;
             self.held.push(Held {
                 index,
-                k: stiffening * KAPPA / (w * gamma * gamma),
+                k,
                 mass: 1.0 / w,
                 start: x[p],
                 gap,
+                overlap: gap - c.gap,
                 displacement: d,
                 reach,
                 body: body.map(|(k, r, _)| (k, r)),
@@ -531,7 +590,10 @@ impl ContactBuffers {
     ///   friction can carry it) slides: each of its contacts past its own
     ///   bound `μ λ` takes that bound, in the direction its friction acted.
     ///   Held by a damping sized for creeping, the body would be carried
-    ///   along with the cloth at any speed.
+    ///   along with the cloth at any speed;
+    /// - a contact with a body sliding with more than [`GRIP_LIMIT`] times
+    ///   its bound (set in a pass with a larger normal force) takes its
+    ///   bound.
     ///
     /// A body's friction is judged with the pulls of its contacts that let
     /// go, which that friction held back; in a pass that lets a contact of
@@ -616,9 +678,20 @@ impl ContactBuffers {
                 return false;
             }
             let b = body as usize;
-            if net[b].length() > GRIP_LIMIT * counts[b] && grip.length() > bound {
-                held.friction = Friction::Slide(grip * (bound / grip.length()));
-                changed = true;
+            match held.friction {
+                Friction::Hold(_)
+                    if net[b].length() > GRIP_LIMIT * counts[b] && grip.length() > bound =>
+                {
+                    held.friction = Friction::Slide(grip * (bound / grip.length()));
+                    changed = true;
+                }
+                // Sliding, with a bound set by a pass whose normal force has
+                // fallen since.
+                Friction::Slide(kinetic) if kinetic.length() > GRIP_LIMIT * bound => {
+                    held.friction = Friction::Slide(kinetic * (bound / kinetic.length()));
+                    changed = true;
+                }
+                _ => {}
             }
             true
         });
@@ -693,6 +766,18 @@ impl ContactBuffers {
                 along = end;
             }
             self.impulses.push((held.index as u32, impulse, held.start));
+            if let Some((body, _)) = held.body {
+                let depth = held.overlap.min(SEPARATION_SPEED * h);
+                if depth > 0.0 {
+                    self.overlaps.push((
+                        body,
+                        Overlap {
+                            normal: c.normal,
+                            depth,
+                        },
+                    ));
+                }
+            }
             if force <= 0.0 {
                 // The spring held the particle back: it was leaving.
                 continue;
@@ -707,5 +792,27 @@ impl ContactBuffers {
                 Hold::Slide
             };
         }
+        self.separate();
+    }
+
+    /// Each body's shift out of its contacts' overlaps ([`push_out`]), into
+    /// `separations`.
+    fn separate(&mut self) {
+        self.separations.clear();
+        self.separations.resize(self.bodies.len(), Vec3::ZERO);
+        if self.overlaps.is_empty() {
+            return;
+        }
+        self.overlaps.sort_unstable_by_key(|o| o.0);
+        for group in self.overlaps.chunk_by(|a, b| a.0 == b.0) {
+            let body = group[0].0 as usize;
+            let Some(out) = self.separations.get_mut(body) else {
+                continue;
+            };
+            self.scratch.clear();
+            self.scratch.extend(group.iter().map(|o| o.1));
+            *out = push_out(&self.scratch, &mut self.pushes);
+        }
+        self.overlaps.clear();
     }
 }

@@ -3,7 +3,9 @@
 //! outside it.
 
 use super::*;
-use crate::sim::integrate::implicit::contacts::{DEPENETRATION_SPEED, KAPPA, STICK_SPEED};
+use crate::sim::integrate::implicit::contacts::{
+    DEPENETRATION_SPEED, KAPPA, NO_BODY, SEPARATION_SPEED, STICK_SPEED,
+};
 
 /// Mass (kg) and step (s) of the tests.
 const M: f32 = 0.01;
@@ -407,6 +409,40 @@ fn a_particle_deep_inside_a_free_body_comes_out_at_a_bounded_speed() {
     assert!(
         parting > 0.5 * DEPENETRATION_SPEED && parting <= 1.01 * DEPENETRATION_SPEED,
         "they part at {parting} m/s"
+    );
+}
+
+#[test]
+fn a_body_sunk_into_a_sheet_on_a_table_is_moved_out_without_speed() {
+    // A particle lying on a table (its contact with it touching) under a
+    // body of its own mass that its engine pushed 2 cm into it. The cloth
+    // cannot give way: taken out as velocity in one step, the body would
+    // leave at 1.2 m/s. The body is moved out
+    // by its position instead, at the separation speed, and leaves at no
+    // speed.
+    let (v, body, separation) = weightless(&[Vec3::ZERO], |dynamics| {
+        let (mut x, mut v) = ([Vec3::ZERO], [Vec3::ZERO]);
+        let mut buffers = ImplicitBuffers::default();
+        let list = &mut buffers.contacts.list;
+        list.push(touching(0, Vec3::Y, 0.0, 0.0, NO_BODY));
+        list.push(touching(0, Vec3::NEG_Y, -0.02, 0.0, 0));
+        buffers
+            .contacts
+            .bodies
+            .push(SolveBody::new(M, Vec3::Y * 0.1));
+        backward_euler(dynamics, &mut x, &mut v, H, &mut buffers);
+        (
+            v,
+            buffers.contacts.body_change(0),
+            buffers.contacts.body_separation(0),
+        )
+    });
+    assert!(v[0].length() < 1e-3, "the particle moves at {} m/s", v[0]);
+    assert!(body[0].length() < 1e-3, "the body moves at {} m/s", body[0]);
+    let expected = SEPARATION_SPEED * H;
+    assert!(
+        (separation - Vec3::Y * expected).length() < 1e-3 * expected,
+        "the body moved {separation} m, not {expected} m up"
     );
 }
 
