@@ -30,8 +30,9 @@
 //!   its centre of mass, through avian's `Forces`; avian's step in
 //!   `FixedPostUpdate` then moves it. Kinematic and static bodies are
 //!   one-way. The shift out of the cloth that the cloth's overlap with a
-//!   body calls for ([`ContactImpulse::shift`](crate::plugin::collision::ContactImpulse::shift)) is made to its `Position`, not
-//!   to its velocity.
+//!   body calls for
+//!   ([`ContactImpulse::shift`](crate::plugin::collision::ContactImpulse::shift))
+//!   is made to its `Position`, not to its velocity.
 //!
 //! The bridge is a plugin of its own rather than part of `ClothPlugin`, so
 //! that a game chooses it (and its settings) where it adds avian, and a

@@ -30,10 +30,11 @@
 //! - **Two-way coupling.** The impulses the cloth's contacts give a dynamic
 //!   body over a step are added to its `ExternalImpulse` in
 //!   [`ClothSystems::Writeback`], linear and angular about its centre of
-//!   mass; rapier applies them at its next sync. The move out of the
-//!   cloth its overlap calls for ([`ContactImpulse::shift`](crate::plugin::collision::ContactImpulse::shift))
-//!   is made to its position in rapier's body set, leaving its velocity
-//!   alone. Kinematic and fixed bodies are one-way.
+//!   mass; rapier applies them at its next sync. The shift out of the
+//!   cloth that its overlap calls for
+//!   ([`ContactImpulse::shift`](crate::plugin::collision::ContactImpulse::shift))
+//!   is made to its position in rapier's body set, not to its velocity.
+//!   Kinematic and fixed bodies are one-way.
 //!
 //! bevy_rapier steps in `PostUpdate` unless told otherwise; with
 //! `RapierPhysicsPlugin::in_fixed_schedule()` it steps in `FixedUpdate`,

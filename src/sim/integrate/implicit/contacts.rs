@@ -272,7 +272,6 @@ pub struct ContactBuffers {
     /// Each particle's normal force in the last step (N; 0 when free): of
     /// its own contact, and of its edge contact.
     load: Vec<[f32; 2]>,
-
     /// Whether any particle is held now (so `hold` needs clearing).
     pub(super) any: bool,
     /// This step's held contacts.
