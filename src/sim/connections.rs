@@ -174,6 +174,16 @@ impl Connections {
         }
     }
 
+    /// The links of one family, to edit.
+    pub fn family_mut(&mut self, family: LinkFamily) -> &mut Vec<Link> {
+        match family {
+            LinkFamily::Structural => &mut self.structural,
+            LinkFamily::Shear => &mut self.shear,
+            LinkFamily::Bend => &mut self.bend,
+            LinkFamily::BendDiagonal => &mut self.bend_diagonal,
+        }
+    }
+
     /// Choi–Ko's Type 1 connections (tension only): structural then shear.
     pub fn type1(&self) -> impl Iterator<Item = &Link> {
         self.structural.iter().chain(&self.shear)

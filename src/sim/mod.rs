@@ -7,7 +7,7 @@
 //! divergence guard around it ([`guard`]), adaptive substeps
 //! ([`adaptive`]), the narrow phase and contacts ([`collision`]), creases'
 //! geometry ([`crease`]), wind on faces ([`wind`]), the particles and links of
-//! a cloth of any shape ([`topology`]), tethers to the pins ([`tether`]), a
+//! a cloth of any shape ([`topology`]), tearing and cutting it ([`tear`]), tethers to the pins ([`tether`]), a
 //! moving frame ([`frame`]), a skinned mesh's animation ([`skin`]), and the
 //! helper thread and worker pool that large steps share their work with
 //! (`team`, [`workers`]).
@@ -65,6 +65,7 @@ pub mod sleep;
 pub(crate) mod soa;
 pub mod step;
 pub(crate) mod team;
+pub mod tear;
 pub mod tether;
 pub mod topology;
 pub mod wind;

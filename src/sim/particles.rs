@@ -152,6 +152,43 @@ impl Particles {
         self.inverse_masses.get(i) == Some(&0.0)
     }
 
+    /// Appends a copy of particle `i` at its position and velocity that
+    /// takes `share` (dimensionless, clamped to (0, 1)) of its mass, and
+    /// returns the copy's index (`None` when `i` is out of range): the
+    /// split of a particle a tear passes. The copy keeps the pins of the
+    /// builder, the game, an anchor and a skin; a grab's or the pointer's
+    /// pin holds the original only, so the copy is free of it.
+    pub fn push_copy(&mut self, i: usize, share: f32) -> Option<u32> {
+        if i >= self.len() || self.velocities.len() != self.len() {
+            return None;
+        }
+        self.pins.resize(self.len(), 0);
+        let share = if share.is_finite() {
+            share.clamp(1e-6, 1.0 - 1e-6)
+        } else {
+            0.5
+        };
+        let mass = self.masses[i];
+        let held = if self.pins[i] == 0 && self.inverse_masses[i] == 0.0 {
+            PinOwner::Game.bit()
+        } else {
+            self.pins[i]
+        };
+        let kept = held & !(PinOwner::Grab.bit() | PinOwner::Picking.bit());
+        self.masses[i] = mass * (1.0 - share);
+        if self.inverse_masses[i] != 0.0 {
+            self.inverse_masses[i] = 1.0 / self.masses[i];
+        }
+        let copy = self.len() as u32;
+        self.positions.push(self.positions[i]);
+        self.velocities.push(self.velocities[i]);
+        self.masses.push(mass * share);
+        self.inverse_masses
+            .push(if kept != 0 { 0.0 } else { 1.0 / (mass * share) });
+        self.pins.push(kept);
+        Some(copy)
+    }
+
     /// Kinetic energy `Σ ½ m v²` of the free particles in J.
     pub fn kinetic_energy(&self) -> f32 {
         self.velocities
@@ -224,6 +261,26 @@ mod tests {
         p.pin(2);
         assert!(p.unpin(2) && !p.is_pinned(2) && !p.is_pinned_by(2, PinOwner::Skin));
         assert!(!p.pin_by(3, PinOwner::Game) && !p.release_pin(3, PinOwner::Game));
+    }
+
+    #[test]
+    fn a_copy_takes_its_share_of_the_mass_and_the_lasting_pins() {
+        let mut p = Particles::new(vec![Vec3::ZERO, Vec3::X], vec![0.4, 0.8]);
+        p.velocities[1] = Vec3::Y;
+        assert_eq!(p.push_copy(1, 0.25), Some(2));
+        assert!((p.masses[1] - 0.6).abs() < 1e-6 && (p.masses[2] - 0.2).abs() < 1e-6);
+        assert!((p.inverse_masses[2] - 5.0).abs() < 1e-4);
+        assert_eq!((p.velocities[2], p.positions[2]), (Vec3::Y, Vec3::X));
+        // A grabbed particle's copy is free; a builder's pin holds both.
+        p.pin_by(0, PinOwner::Grab);
+        let free = p.push_copy(0, 0.5).unwrap() as usize;
+        assert!(!p.is_pinned(free) && (p.masses[free] - 0.2).abs() < 1e-7);
+        p.pin_by(1, PinOwner::Builder);
+        let held = p.push_copy(1, 0.5).unwrap() as usize;
+        assert!(p.is_pinned_by(held, PinOwner::Builder) && p.is_pinned(1));
+        assert_eq!(p.push_copy(9, 0.5), None);
+        let total: f32 = p.masses.iter().sum();
+        assert!((total - 1.2).abs() < 1e-6);
     }
 
     #[test]

@@ -25,7 +25,7 @@ use bevy::math::Vec3;
 
 use crate::error::ClothError;
 use crate::sim::connections::{Connections, Link};
-use crate::sim::grid::{Faces, MAX_PARTICLES};
+use crate::sim::grid::{Faces, Grid, MAX_PARTICLES};
 
 /// How much longer than every other edge of its two triangles an edge must
 /// be to count as a quad's diagonal (dimensionless). A grid's diagonal is
@@ -170,6 +170,26 @@ impl MeshTopology {
             .filter(|e| e.count > 2)
             .count();
         Ok(out)
+    }
+
+    /// The topology of `grid`: its particles in the grid's order, at rest
+    /// in the xz plane (`(u, 0, v)` of [`Grid::rest_uv`], m), and its
+    /// triangles ([`Grid::triangle`]). Its [`connections`](Self::connections)
+    /// are the grid's own ([`Connections::grid`]).
+    pub fn from_grid(grid: &Grid) -> Self {
+        let positions: Vec<Vec3> = (0..grid.len() as u32)
+            .map(|p| {
+                let uv = grid.rest_uv(p);
+                Vec3::new(uv.x, 0.0, uv.y)
+            })
+            .collect();
+        Self {
+            particle_of: (0..positions.len() as u32).map(Some).collect(),
+            positions,
+            triangles: grid.triangles(),
+            non_manifold_edges: 0,
+            degenerate_triangles: 0,
+        }
     }
 
     /// Number of particles.
