@@ -124,6 +124,15 @@ pub enum ClothError {
         /// The largest rate given, fixed steps.
         max_every: u32,
     },
+    /// A tearing threshold must be finite and positive: a strain
+    /// (dimensionless) or a force (N).
+    #[error("invalid tearing threshold {name}: {value}")]
+    InvalidTearing {
+        /// Which threshold.
+        name: &'static str,
+        /// The value given.
+        value: f32,
+    },
     /// Gravity (m/s²) must be finite.
     #[error("gravity must be finite, got {0}")]
     InvalidGravity(Vec3),

@@ -129,6 +129,7 @@ pub mod prelude {
     pub use crate::plugin::schedule::ClothPause;
     pub use crate::plugin::skin::{ATTRIBUTE_FREEDOM, ClothSkin};
     pub use crate::plugin::sleep::{ClothSleep, WakeCloth};
+    pub use crate::plugin::tear::{ClothCut, ClothTearing, ClothTorn};
     pub use crate::plugin::tether::ClothTethers;
     pub use crate::plugin::wind::ClothWind;
     pub use crate::sim::collision::TriMesh;

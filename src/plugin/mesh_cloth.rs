@@ -3,6 +3,7 @@
 //! pins an artist painted into its vertex colours or a named attribute.
 //! The one place the mesh topology meets `bevy::mesh`.
 
+use std::collections::HashMap;
 use std::sync::Arc;
 
 use bevy::math::{Vec2, Vec3};
@@ -10,7 +11,7 @@ use bevy::mesh::{Indices, Mesh, PrimitiveTopology, VertexAttributeValues};
 use bevy::reflect::Reflect;
 
 use crate::error::ClothError;
-use crate::sim::grid::Faces;
+use crate::sim::grid::{Faces, Grid};
 use crate::sim::topology::MeshTopology;
 
 /// The shape of a cloth made from a mesh: its welded [`MeshTopology`]
@@ -64,6 +65,17 @@ impl MeshLayout {
                 kept.extend(r);
             }
         }
+        Self::from_parts(topology, vertex_particles, uvs.map(|_| kept_uvs), kept)
+    }
+
+    /// The layout of `topology` rendered as `vertex_particles` (each
+    /// rendered vertex's particle) with UVs `uvs` and triangles `indices`.
+    fn from_parts(
+        topology: MeshTopology,
+        vertex_particles: Vec<u32>,
+        uvs: Option<Vec<[f32; 2]>>,
+        indices: Vec<u32>,
+    ) -> Self {
         let x = &topology.positions;
         let edges: Vec<f32> = topology
             .triangles
@@ -84,8 +96,8 @@ impl MeshLayout {
         Self(Arc::new(ShapeData {
             topology,
             vertex_particles,
-            uvs: uvs.map(|_| kept_uvs),
-            indices: kept,
+            uvs,
+            indices,
             spacing,
             area,
             cell_size,
@@ -101,6 +113,69 @@ impl MeshLayout {
             _ => None,
         };
         Ok(Self::new(topology, uvs, mesh_indices(mesh).as_deref()))
+    }
+
+    /// The layout of a grid cloth: its particles and triangles
+    /// ([`MeshTopology::from_grid`]), each particle rendered once, with the
+    /// grid's UVs (over `[0, 1]²` along its columns and rows).
+    pub fn from_grid(grid: &Grid) -> Self {
+        let topology = MeshTopology::from_grid(grid);
+        let (cu, rv) = ((grid.cols - 1) as f32, (grid.rows - 1) as f32);
+        let uvs = (0..grid.len() as u32)
+            .map(|p| [(p % grid.cols) as f32 / cu, (p / grid.cols) as f32 / rv])
+            .collect();
+        let indices = topology.triangles.iter().flatten().copied().collect();
+        let vertex_particles = (0..grid.len() as u32).collect();
+        Self::from_parts(topology, vertex_particles, Some(uvs), indices)
+    }
+
+    /// This layout after a tear that left `topology`: the same triangles
+    /// (in the same order), some of whose corners are now copies of their
+    /// particles ([`tear`](crate::sim::tear)). A rendered vertex whose
+    /// triangles now reach two particles is duplicated, its UV kept, so each
+    /// side of the tear renders on its own.
+    pub fn torn(&self, topology: MeshTopology) -> Self {
+        let before = &self.topology().triangles;
+        let key = |t: [u32; 3]| {
+            let mut t = t;
+            t.sort_unstable();
+            t
+        };
+        let of_triangle: HashMap<[u32; 3], usize> = before
+            .iter()
+            .enumerate()
+            .map(|(i, &t)| (key(t), i))
+            .collect();
+        let uvs = self.uvs_or_projected();
+        let mut vertex_particles = self.vertex_particles().to_vec();
+        let mut kept_uvs = uvs.clone();
+        let mut copies: HashMap<(u32, u32), u32> = HashMap::new();
+        let mut indices = self.indices().to_vec();
+        for rendered in indices.chunks_exact_mut(3) {
+            let old = [0, 1, 2].map(|k| self.vertex_particles()[rendered[k] as usize]);
+            let Some(&t) = of_triangle.get(&key(old)) else {
+                continue;
+            };
+            let (was, now) = (
+                before[t],
+                topology.triangles.get(t).copied().unwrap_or(before[t]),
+            );
+            for (r, p) in rendered.iter_mut().zip(old) {
+                let Some(k) = was.iter().position(|&q| q == p) else {
+                    continue;
+                };
+                let particle = now[k];
+                if particle == p {
+                    continue;
+                }
+                *r = *copies.entry((*r, particle)).or_insert_with(|| {
+                    vertex_particles.push(particle);
+                    kept_uvs.push(uvs[*r as usize]);
+                    (vertex_particles.len() - 1) as u32
+                });
+            }
+        }
+        Self::from_parts(topology, vertex_particles, Some(kept_uvs), indices)
     }
 
     /// The welded particles and triangles.

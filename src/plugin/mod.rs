@@ -42,6 +42,7 @@ pub mod schedule;
 pub mod skin;
 pub mod sleep;
 pub mod systems;
+pub mod tear;
 pub mod tether;
 pub mod wind;
 
@@ -173,6 +174,9 @@ impl Plugin for ClothPlugin {
             .register_type::<interaction::ClothGrabs>()
             .register_type::<wind::ClothWind>()
             .add_message::<events::ClothDiverged>()
+            .add_message::<tear::ClothCut>()
+            .register_type::<tear::ClothTearing>()
+            .register_type::<tear::ClothTorn>()
             .register_type::<events::ClothGrabbed>()
             .register_type::<events::ClothReleased>()
             .register_type::<events::ClothAtRest>()
@@ -215,6 +219,7 @@ impl Plugin for ClothPlugin {
                         anchor::snap_anchors.run_if(any_with_component::<ClothAnchors>),
                         interaction::snap_grabs.run_if(interaction::grabs_active),
                         skin::limit_skins.run_if(any_with_component::<skin::ClothSkin>),
+                        tear::tear_cloths.run_if(tear::tearing_wanted),
                         systems::finish_step,
                         schedule::consume_step.run_if(schedule::paused),
                     )

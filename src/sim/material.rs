@@ -81,6 +81,10 @@ pub struct Fabric {
     pub damping: f32,
     /// Axial damping of the stretch links, N·s/m.
     pub stretch_damping: f32,
+    /// The strain at which the fabric tears (dimensionless, > 0): a Type 1
+    /// link of a cloth with tearing on breaks when stretched by this
+    /// fraction of its rest length (`ClothTearing`).
+    pub tear_strain: f32,
 }
 
 impl Fabric {
@@ -93,6 +97,7 @@ impl Fabric {
         density: 0.15,
         damping: 1.5,
         stretch_damping: 0.1,
+        tear_strain: 0.15,
     };
     /// Light silk (60 g/m²): limp and flowing.
     pub const SILK: Self = Self {
@@ -102,6 +107,7 @@ impl Fabric {
         density: 0.06,
         damping: 1.0,
         stretch_damping: 0.04,
+        tear_strain: 0.25,
     };
     /// Denim (400 g/m²): heavy, stiff, slow folds.
     pub const DENIM: Self = Self {
@@ -111,6 +117,7 @@ impl Fabric {
         density: 0.4,
         damping: 2.0,
         stretch_damping: 0.4,
+        tear_strain: 0.3,
     };
     /// Leather (1 kg/m²): very heavy and stiff; it bends in broad curves.
     pub const LEATHER: Self = Self {
@@ -120,6 +127,7 @@ impl Fabric {
         density: 1.0,
         damping: 3.0,
         stretch_damping: 1.0,
+        tear_strain: 0.5,
     };
     /// Paper (80 g/m²): nearly inextensible, stiff in bending, creases.
     pub const PAPER: Self = Self {
@@ -129,6 +137,7 @@ impl Fabric {
         density: 0.08,
         damping: 2.0,
         stretch_damping: 0.5,
+        tear_strain: 0.03,
     };
 
     /// Every preset with its name, for menus and tables.
@@ -154,6 +163,12 @@ impl Fabric {
         }
         if !(self.density.is_finite() && self.density > 0.0) {
             return Err(ClothError::InvalidMass(self.density));
+        }
+        if !(self.tear_strain.is_finite() && self.tear_strain > 0.0) {
+            return Err(ClothError::InvalidTearing {
+                name: "fabric.tear_strain",
+                value: self.tear_strain,
+            });
         }
         for (name, value) in [
             ("fabric.damping", self.damping),

@@ -5,9 +5,11 @@
 //! particle is split by a plane: its triangles on one side keep it, those
 //! on the other side get a copy of it (same rest and current position),
 //! which takes their share of its mass (by area). A triangle is on the side
-//! of its two other particles; one they straddle goes to the side the split
-//! particle is not on, so the crack runs through the particle. The edges
-//! between the two sides open; the larger side keeps the particle's index.
+//! of its particles that are not split, so a crack runs through the split
+//! particles and each triangle lies wholly on one side of it; one whose
+//! other particles straddle the plane goes to the side the split particle
+//! is not on. The edges between the two sides open; the larger side keeps
+//! the particle's index.
 //!
 //! - **A broken Type 1 link** splits one end, by the plane through that end
 //!   across the link (the other end if the first has triangles on one side
@@ -15,8 +17,10 @@
 //!   where a real tear runs: across the stress. The load moves to the
 //!   crack's tips, whose links break next, and the crack grows.
 //! - **A blade** ([`Blade`]) splits, for every mesh edge that crosses it,
-//!   the edge's end nearer the blade's plane, by that plane. A straight cut
-//!   across a grid opens it along the row of particles next to the cut.
+//!   the edge's end nearer the blade's plane, by that plane: the cut snaps
+//!   to the particles next to it, and every edge it crosses opens. A
+//!   straight cut across a grid opens it along the row of particles
+//!   nearest to the cut.
 //!
 //! The links are then those of the new triangles ([`rebuild`]): each side
 //! keeps its own edge links, and no Type 1 or Type 2 link reaches across an
@@ -64,29 +68,26 @@ impl Blade {
         Some(Plane { point: a, normal })
     }
 
-    /// Whether the segment `p → q` (m) crosses the blade (Möller–Trumbore,
-    /// ends included).
+    /// Whether the segment `p → q` (m) crosses the blade: its ends on
+    /// opposite sides of the blade's plane (or one on it), meeting the
+    /// plane within the triangle or within 10⁻⁴ of its size of it, so that
+    /// a segment through an edge the blade's two triangles share is not
+    /// missed.
     pub fn crosses(&self, p: Vec3, q: Vec3) -> bool {
         let [a, b, c] = self.0;
-        let d = q - p;
-        let (e1, e2) = (b - a, c - a);
-        let h = d.cross(e2);
-        let det = e1.dot(h);
-        if det.abs() < 1e-12 || !det.is_finite() {
+        let n = (b - a).cross(c - a);
+        let (hp, hq) = ((p - a).dot(n), (q - a).dot(n));
+        if hp * hq > 0.0 || hp == hq || !(hp.is_finite() && hq.is_finite()) {
             return false;
         }
-        let s = p - a;
-        let u = s.dot(h) / det;
-        if !(0.0..=1.0).contains(&u) {
-            return false;
-        }
-        let qv = s.cross(e1);
-        let v = d.dot(qv) / det;
-        if v < 0.0 || u + v > 1.0 {
-            return false;
-        }
-        let t = e2.dot(qv) / det;
-        (0.0..=1.0).contains(&t)
+        let hit = p + (q - p) * (hp / (hp - hq));
+        // Barycentric coordinates of the hit in the blade.
+        let nn = n.length_squared();
+        let u = (c - b).cross(hit - b).dot(n) / nn;
+        let v = (a - c).cross(hit - c).dot(n) / nn;
+        let w = 1.0 - u - v;
+        let slack = -1e-4;
+        u >= slack && v >= slack && w >= slack
     }
 }
 
@@ -105,6 +106,11 @@ impl TearPlan {
     /// Whether the plan splits nothing.
     pub fn is_empty(&self) -> bool {
         self.splits.is_empty()
+    }
+
+    /// Adds `other`'s splits after this plan's.
+    pub fn extend(&mut self, other: Self) {
+        self.splits.extend(other.splits);
     }
 }
 
@@ -133,14 +139,21 @@ fn centroid(topology: &MeshTopology, x: &[Vec3], t: u32) -> Vec3 {
 }
 
 /// Which side of `plane` triangle `t` goes to when its particle `v` (at
-/// positions `x`, m) is split: the side of its two other particles; a
-/// triangle they straddle goes to the side `v` is not on, so the crack runs
-/// through `v` (by its centroid when `v` lies on the plane).
-fn above(topology: &MeshTopology, x: &[Vec3], plane: &Plane, v: u32, t: u32) -> bool {
+/// positions `x`, m) is split: the side of its particles that are not
+/// split (`split`, nor copies: from `first_copy` on); a triangle they straddle goes to the side `v` is not
+/// on, so the crack runs through `v`; one whose particles all split, by
+/// its centroid.
+fn above(
+    topology: &MeshTopology,
+    x: &[Vec3],
+    plane: &Plane,
+    (v, split, first_copy): (u32, &HashSet<u32>, u32),
+    t: u32,
+) -> bool {
     let height = |p: u32| (x[p as usize] - plane.point).dot(plane.normal);
     let (mut up, mut down) = (false, false);
     for &p in &topology.triangles[t as usize] {
-        if p != v {
+        if p != v && p < first_copy && !split.contains(&p) {
             let h = height(p);
             up |= h > 0.0;
             down |= h < 0.0;
@@ -149,14 +162,8 @@ fn above(topology: &MeshTopology, x: &[Vec3], plane: &Plane, v: u32, t: u32) -> 
     match (up, down) {
         (true, false) => true,
         (false, true) => false,
-        _ => {
-            let h = height(v);
-            if h != 0.0 {
-                h < 0.0
-            } else {
-                plane.above(centroid(topology, x, t))
-            }
-        }
+        (true, true) if height(v) != 0.0 => height(v) < 0.0,
+        _ => plane.above(centroid(topology, x, t)),
     }
 }
 
@@ -266,6 +273,11 @@ pub fn apply(
     }
     // The positions of the particles and of the copies made so far.
     let mut x = x[..topology.len()].to_vec();
+    // The particles the plan splits first: a triangle goes to the side of
+    // its other particles, so that a cut snaps to them.
+    // Their copies count as split too.
+    let split: HashSet<u32> = plan.splits.iter().map(|s| s.0).collect();
+    let first_copy = topology.len() as u32;
     let area = |topology: &MeshTopology, t: u32| {
         let [a, b, c] = topology.triangles[t as usize].map(|p| topology.positions[p as usize]);
         0.5 * (b - a).cross(c - a).length()
@@ -280,7 +292,7 @@ pub fn apply(
                 if !topology.triangles[t as usize].contains(&v) {
                     continue;
                 }
-                let side = if above(topology, &x, &plane, v, t) {
+                let side = if above(topology, &x, &plane, (v, &split, first_copy), t) {
                     &mut upper
                 } else {
                     &mut lower

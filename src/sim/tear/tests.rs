@@ -361,3 +361,52 @@ proptest! {
         prop_assert!((now - total).abs() < 1e-4 * total);
     }
 }
+
+/// The number of pieces of `links` over `n` particles (by any link).
+fn pieces(n: usize, links: &Connections) -> usize {
+    let mut parent: Vec<usize> = (0..n).collect();
+    fn root(parent: &mut [usize], mut i: usize) -> usize {
+        while parent[i] != i {
+            parent[i] = parent[parent[i]];
+            i = parent[i];
+        }
+        i
+    }
+    for l in links.type1().chain(links.type2()) {
+        let (a, b) = (
+            root(&mut parent, l.a as usize),
+            root(&mut parent, l.b as usize),
+        );
+        parent[a] = b;
+    }
+    (0..n).filter(|&i| root(&mut parent, i) == i).count()
+}
+
+#[test]
+fn a_straight_cut_across_an_irregular_disc_parts_it_in_two() {
+    let (positions, indices) = crate::sim::topology::disc(0.5, 10);
+    let topology = MeshTopology::new(&positions, Some(&indices)).unwrap();
+    let cuts = [0.1f32, -0.23, 0.37, 0.0, 0.05]
+        .map(|x| (x, 0.0f32))
+        .into_iter()
+        .chain([(0.07, 0.3), (-0.12, 1.1), (0.2, 2.0), (0.0, 0.7)]);
+    for (x, angle) in cuts {
+        let mut t = topology.clone();
+        // A blade through (x, 0, 0), turned by `angle` about y.
+        let (across, along) = (
+            Vec3::new(angle.cos(), 0.0, angle.sin()),
+            Vec3::new(-angle.sin(), 0.0, angle.cos()),
+        );
+        let c = across * x;
+        let blades = Blade::quad(
+            c - along - Vec3::Y,
+            c + along - Vec3::Y,
+            c + along + Vec3::Y,
+            c - along + Vec3::Y,
+        );
+        let (_, crossed, links) = cut_at_rest(&mut t, &blades);
+        assert_valid(&t);
+        assert!(!crossed.is_empty());
+        assert_eq!(pieces(t.len(), &links), 2, "cut at {x} m, {angle} rad");
+    }
+}

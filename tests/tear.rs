@@ -1,0 +1,506 @@
+//! Tearing and cutting in an app: a banner torn by a pull at its fabric's
+//! strain, a straight cut that drops the lower half, the render mesh split
+//! along a cut, and abuse (a thousand random cuts through pins, anchors,
+//! grabs and tethers; yanks at 50 m/s; bad thresholds).
+
+mod common;
+
+use bevy::prelude::*;
+use bevy_cloth::plugin::mesh_cloth::MeshLayout;
+use bevy_cloth::prelude::*;
+use common::{Rng, app, app_with_meshes, particles};
+
+/// The `ClothTorn` events seen, in order.
+#[derive(Resource, Default)]
+struct Torn(Vec<ClothTorn>);
+
+fn record_tears(app: &mut App) {
+    app.init_resource::<Torn>()
+        .add_observer(|torn: On<ClothTorn>, mut seen: ResMut<Torn>| {
+            seen.0.push(torn.event().clone())
+        });
+}
+
+fn run(app: &mut App, frames: usize) {
+    for _ in 0..frames {
+        app.update();
+    }
+}
+
+/// A banner `n × n`, 1 m square, hanging in the xy plane from its top
+/// edge at y = 2 m (row 0 on top).
+fn banner(n: u32, material: ClothMaterial) -> ClothBundle {
+    ClothBuilder::new(n, n)
+        .size(1.0, 1.0)
+        .material(material)
+        .position(Vec3::new(0.0, 1.5, 0.0))
+        .rotation(Quat::from_rotation_x(std::f32::consts::FRAC_PI_2))
+        .pin_edge(GridEdge::Top)
+        .build()
+        .unwrap()
+}
+
+/// Checks what every tear must keep: the arrays of one length, every link
+/// and rendered triangle in range, no triangle with a repeated particle,
+/// finite state.
+fn assert_valid(app: &App, cloth: Entity) {
+    let world = app.world();
+    let p = world.get::<ClothParticles>(cloth).unwrap();
+    let c = world.get::<ClothConnections>(cloth).unwrap();
+    let shape = world.get::<Cloth>(cloth).unwrap();
+    assert!(p.is_finite(), "non-finite state");
+    assert!(bevy_cloth::check_cloth(p, c).is_ok());
+    assert_eq!(shape.len(), p.len());
+    let forces = world.get::<ClothForces>(cloth).unwrap().0.len();
+    assert!(forces == 0 || forces == p.len());
+    if let Some(layout) = shape.mesh() {
+        assert_layout(layout, p.len());
+    }
+}
+
+fn assert_layout(layout: &MeshLayout, n: usize) {
+    let vertices = layout.vertex_particles();
+    assert!(vertices.iter().all(|&q| (q as usize) < n));
+    assert_eq!(layout.indices().len() % 3, 0);
+    for t in layout.indices().chunks_exact(3) {
+        assert!(t.iter().all(|&r| (r as usize) < vertices.len()));
+        let q = [t[0], t[1], t[2]].map(|r| vertices[r as usize]);
+        assert!(q[0] != q[1] && q[1] != q[2] && q[2] != q[0], "{q:?}");
+    }
+    for t in &layout.topology().triangles {
+        assert!(t.iter().all(|&q| (q as usize) < n));
+        assert!(t[0] != t[1] && t[1] != t[2] && t[2] != t[0], "{t:?}");
+    }
+    assert_eq!(layout.uvs().map(<[_]>::len), Some(vertices.len()));
+}
+
+/// A soft fabric (200 N/m) that tears at 10 % strain.
+const SOFT: Fabric = Fabric {
+    stretch: 200.0,
+    shear: 200.0,
+    tear_strain: 0.1,
+    ..Fabric::COTTON
+};
+
+#[test]
+fn a_banner_pulled_by_its_edges_tears_at_its_fabric_s_strain() {
+    let n = 21;
+    let mut app = app();
+    record_tears(&mut app);
+    // Free in space (no gravity, no pins), pulled apart by its top and
+    // bottom rows.
+    let strip = ClothBuilder::new(n, n)
+        .size(1.0, 1.0)
+        .material(ClothMaterial::Fabric(SOFT))
+        .position(Vec3::new(0.0, 1.5, 0.0))
+        .rotation(Quat::from_rotation_x(std::f32::consts::FRAC_PI_2))
+        .build()
+        .unwrap();
+    let settings = ClothSettings(SimSettings {
+        gravity: Vec3::ZERO,
+        ..default()
+    });
+    let cloth = app
+        .world_mut()
+        .spawn((strip, settings, ClothTearing::default()))
+        .id();
+    // A pull that grows by 5 N/s, shared equally by the n particles of
+    // each edge row.
+    let (top, bottom): (Vec<u32>, Vec<u32>) = ((0..n).collect(), ((n - 1) * n..n * n).collect());
+    let mut pull = 0.0;
+    let mut at_break = None;
+    for _ in 0..60 * 20 {
+        pull += 5.0 / 60.0;
+        {
+            let mut forces = app.world_mut().get_mut::<ClothForces>(cloth).unwrap();
+            for (row, dir) in [(&top, Vec3::Y), (&bottom, Vec3::NEG_Y)] {
+                for &p in row {
+                    forces.add(p as usize, dir * pull / n as f32, (n * n) as usize);
+                }
+            }
+        }
+        app.update();
+        if !app.world().resource::<Torn>().0.is_empty() {
+            at_break = Some(pull);
+            break;
+        }
+    }
+    let at_break = at_break.expect("the banner tore");
+    // Tension-only links: the banner narrows freely, so each column's
+    // chain of links along the pull carries its share alone, and breaks at
+    // k·strain·h: n chains break together at n·k·strain·h.
+    let h = 1.0 / (n - 1) as f32;
+    let expected = n as f32 * SOFT.stretch * SOFT.tear_strain * h;
+    let torn = &app.world().resource::<Torn>().0[0];
+    println!(
+        "broke at {at_break:.2} N (expected {expected:.2} N), links {:?}",
+        torn.links
+    );
+    assert!(
+        (at_break - expected).abs() < 0.1 * expected,
+        "tore at {at_break} N, expected {expected} N"
+    );
+    // The links that broke run along the pull.
+    for &(a, b) in &torn.links {
+        assert_eq!(b - a, n, "({a}, {b}) runs along the pull");
+    }
+    assert!(!torn.split.is_empty() && torn.links.len() <= 4);
+    assert_valid(&app, cloth);
+    // Pulled on, the tear runs across the banner within a second and parts
+    // it in two pieces that fly apart.
+    for _ in 0..60 {
+        {
+            let mut forces = app.world_mut().get_mut::<ClothForces>(cloth).unwrap();
+            let count = forces.0.len().max((n * n) as usize);
+            for (row, dir) in [(&top, Vec3::Y), (&bottom, Vec3::NEG_Y)] {
+                for &p in row {
+                    forces.add(p as usize, dir * pull / n as f32, count);
+                }
+            }
+        }
+        app.update();
+    }
+    assert_valid(&app, cloth);
+    let p = particles(&app, cloth);
+    let (high, low) = (p.positions[0].y, p.positions[(n * n - 1) as usize].y);
+    assert!(
+        high - low > 3.0,
+        "the two halves fly apart: {high} m and {low} m"
+    );
+}
+
+#[test]
+fn a_straight_cut_drops_the_lower_half_and_splits_the_mesh() {
+    let n = 16;
+    let mut app = app_with_meshes();
+    record_tears(&mut app);
+    let cloth = app.world_mut().spawn(banner(n, ClothMaterial::COTTON)).id();
+    run(&mut app, 30);
+    // Across the banner 0.48 m below its top: between rows 7 and 8, nearer
+    // row 7, which opens.
+    let y = 1.52;
+    app.world_mut().write_message(ClothCut::along(
+        Some(cloth),
+        Vec3::new(-1.0, y, 0.0),
+        Vec3::new(1.0, y, 0.0),
+        Vec3::Z * 0.5,
+    ));
+    app.update();
+    let torn = app.world().resource::<Torn>().0.clone();
+    assert_eq!(torn.len(), 1);
+    assert_eq!(
+        torn[0].links.len(),
+        2 * n as usize - 1,
+        "the links the cut crossed"
+    );
+    let split: Vec<u32> = torn[0].split.iter().map(|s| s.0).collect();
+    assert_eq!(split, (7 * n..8 * n).collect::<Vec<_>>(), "row 7 splits");
+    assert_valid(&app, cloth);
+    // The rendered mesh is rebuilt with the copies.
+    let handle = app.world().get::<Mesh3d>(cloth).unwrap().0.clone();
+    let mesh = app.world().resource::<Assets<Mesh>>().get(&handle).unwrap();
+    assert_eq!(mesh.count_vertices(), (n * n + n) as usize);
+    run(&mut app, 60);
+    assert_valid(&app, cloth);
+    let p = particles(&app, cloth);
+    let up = p.positions.iter().filter(|x| x.y > 1.4).count();
+    let fallen = p.positions.iter().filter(|x| x.y < 0.5).count();
+    assert_eq!((up, fallen), (8 * n as usize, 9 * n as usize));
+    // What stays up still hangs whole: no link of it is stretched.
+    let stats = app.world().get::<ClothStats>(cloth).unwrap();
+    assert!(stats.max_strain < 0.05, "strain {}", stats.max_strain);
+}
+
+#[test]
+fn a_cut_wakes_a_sleeping_cloth() {
+    let mut app = app();
+    let cloth = app
+        .world_mut()
+        .spawn(banner(12, ClothMaterial::COTTON))
+        .id();
+    run(&mut app, 600);
+    assert!(
+        app.world().get::<ClothSleep>(cloth).unwrap().is_asleep(),
+        "the banner fell asleep"
+    );
+    app.world_mut().write_message(ClothCut::along(
+        None,
+        Vec3::new(-1.0, 1.3, 0.0),
+        Vec3::new(1.0, 1.3, 0.0),
+        Vec3::Z,
+    ));
+    run(&mut app, 30);
+    let p = particles(&app, cloth);
+    assert!(
+        p.positions.iter().any(|x| x.y < 0.5),
+        "the cut-off part fell"
+    );
+}
+
+#[test]
+fn a_thousand_random_cuts_through_pins_anchors_grabs_and_tethers_never_break_the_cloth() {
+    for (n, frames, seed) in [(3, 1000, 7), (12, 400, 11)] {
+        let mut app = app();
+        record_tears(&mut app);
+        let pole = app
+            .world_mut()
+            .spawn(Transform::from_xyz(0.0, 2.0, 0.0))
+            .id();
+        let cloth = app
+            .world_mut()
+            .spawn((
+                banner(n, ClothMaterial::COTTON),
+                ClothAnchors::default().with(n - 1, pole),
+                ClothTethers::default(),
+                ClothTearing::default(),
+            ))
+            .id();
+        app.update();
+        common::grab_where_they_are(&mut app, cloth, &[n * n - 1]);
+        let mut rng = Rng::new(seed);
+        for frame in 0..frames {
+            // A random blade through the banner's square, often through the
+            // pinned top row, sometimes the same place twice.
+            let c = Vec3::new(0.6 * rng.signed(), 1.5 + 0.6 * rng.signed(), 0.0);
+            let angle = std::f32::consts::PI * rng.signed();
+            let d = Vec3::new(angle.cos(), angle.sin(), 0.0) * (0.1 + 0.5 * rng.unit());
+            if frame % 3 != 0 {
+                app.world_mut()
+                    .write_message(ClothCut::along(None, c - d, c + d, Vec3::Z * 0.3));
+            }
+            if frame % 50 == 0 {
+                app.world_mut()
+                    .get_mut::<Transform>(pole)
+                    .unwrap()
+                    .translation
+                    .x += 0.1;
+                common::move_grabs(&mut app, cloth, Vec3::new(0.0, -0.05, 0.05));
+            }
+            app.update();
+            assert_valid(&app, cloth);
+        }
+        let torn = app.world().resource::<Torn>().0.len();
+        let p = particles(&app, cloth);
+        println!("{n}×{n}: {torn} tears, {} particles", p.len());
+        assert!(torn > 10 && p.len() > (n * n) as usize);
+        // The anchor carries every copy of its particle.
+        let anchors = app.world().get::<ClothAnchors>(cloth).unwrap();
+        assert!(anchors.0.iter().all(|a| (a.particle as usize) < p.len()));
+    }
+}
+
+#[test]
+fn a_banner_yanked_at_50_m_s_with_the_default_tearing_rips_and_stays_finite() {
+    let mut app = app();
+    record_tears(&mut app);
+    let n = 24;
+    let cloth = app
+        .world_mut()
+        .spawn((banner(n, ClothMaterial::COTTON), ClothTearing::default()))
+        .id();
+    run(&mut app, 30);
+    let corner = n * n - 1;
+    common::grab_where_they_are(&mut app, cloth, &[corner]);
+    // 50 m/s down and out for 0.2 s, then let go.
+    for _ in 0..12 {
+        common::move_grabs(
+            &mut app,
+            cloth,
+            Vec3::new(0.5, -0.6, 0.3) * (50.0 / 60.0 / 0.84),
+        );
+        app.update();
+        assert_valid(&app, cloth);
+    }
+    app.world_mut()
+        .get_mut::<ClothGrabs>(cloth)
+        .unwrap()
+        .release(corner);
+    run(&mut app, 180);
+    assert_valid(&app, cloth);
+    assert!(
+        !app.world().resource::<Torn>().0.is_empty(),
+        "the yank tore it"
+    );
+    // Whatever still holds together is under the tear strain.
+    let stats = app.world().get::<ClothStats>(cloth).unwrap();
+    assert!(stats.max_strain < 0.15, "strain {}", stats.max_strain);
+}
+
+#[test]
+fn bad_thresholds_are_refused_and_a_bad_component_only_warns() {
+    for bad in [0.0, -0.1, f32::NAN, f32::INFINITY] {
+        assert!(ClothTearing::default().with_strain(bad).is_err());
+        assert!(ClothTearing::default().with_force(bad).is_err());
+    }
+    let bad_fabric = ClothMaterial::Fabric(Fabric {
+        tear_strain: f32::NAN,
+        ..Fabric::COTTON
+    });
+    assert!(bad_fabric.validate().is_err());
+    // Written straight into the component: the cloth steps on untorn.
+    let mut app = app();
+    record_tears(&mut app);
+    let cloth = app
+        .world_mut()
+        .spawn((
+            banner(8, ClothMaterial::COTTON),
+            ClothTearing {
+                strain: Some(f32::NAN),
+                ..default()
+            },
+        ))
+        .id();
+    run(&mut app, 5);
+    common::grab_where_they_are(&mut app, cloth, &[63]);
+    common::move_grabs(&mut app, cloth, Vec3::NEG_Y);
+    run(&mut app, 30);
+    assert!(app.world().resource::<Torn>().0.is_empty());
+    assert_valid(&app, cloth);
+}
+
+#[test]
+fn a_creased_sheet_cut_across_its_crease_keeps_the_crease_on_each_side() {
+    use bevy_cloth::sim::crease::Crease;
+    let mut app = app();
+    record_tears(&mut app);
+    // A flat 15×15 sheet creased along its middle column, in the xz plane.
+    let sheet = ClothBuilder::new(15, 15)
+        .size(1.0, 1.0)
+        .position(Vec3::new(0.0, 1.0, 0.0))
+        .pin_corner(GridCorner::TopLeft)
+        .build()
+        .unwrap();
+    let crease = Crease::new(Vec2::new(0.5, -0.1), Vec2::new(0.5, 1.1));
+    let cloth = app
+        .world_mut()
+        .spawn((sheet, ClothCreases(vec![crease])))
+        .id();
+    run(&mut app, 60);
+    let before = app
+        .world()
+        .get::<ClothConnections>(cloth)
+        .unwrap()
+        .crease
+        .len();
+    assert!(before > 0);
+    // Cut across the crease, along x through the middle of the sheet.
+    let x = particles(&app, cloth).positions.clone();
+    let centre = x.iter().sum::<Vec3>() / x.len() as f32;
+    app.world_mut().write_message(ClothCut::along(
+        None,
+        centre - Vec3::X,
+        centre + Vec3::X,
+        Vec3::Y * 0.5,
+    ));
+    run(&mut app, 60);
+    assert_eq!(app.world().resource::<Torn>().0.len(), 1);
+    assert_valid(&app, cloth);
+    // The crease ends at the cut: its links across the cut are gone, the
+    // rest stay, and the record of the rest lengths it changed is dropped.
+    let after = app
+        .world()
+        .get::<ClothConnections>(cloth)
+        .unwrap()
+        .crease
+        .len();
+    assert!(
+        after > 0 && after < before,
+        "{after} of {before} crease links"
+    );
+    assert!(
+        app.world()
+            .get::<bevy_cloth::plugin::crease::ClothCreaseRecord>(cloth)
+            .is_none()
+    );
+    app.world_mut().entity_mut(cloth).remove::<ClothCreases>();
+    run(&mut app, 10);
+    assert_valid(&app, cloth);
+}
+
+#[test]
+fn a_mesh_cloth_with_self_collision_is_cut_in_two_and_keeps_its_uvs() {
+    let mut app = app();
+    record_tears(&mut app);
+    let disc = bevy_cloth::plugin::mesh_cloth::disc_mesh(0.5, 10);
+    let shape = ClothBuilder::from_mesh(&disc)
+        .position(Vec3::new(0.0, 1.0, 0.0))
+        .pin_where(|p| p.x < -0.45)
+        .build()
+        .unwrap();
+    let cloth = app
+        .world_mut()
+        .spawn((
+            shape,
+            ClothSelfCollision::default(),
+            ClothTearing::default(),
+        ))
+        .id();
+    run(&mut app, 10);
+    let layout = app
+        .world()
+        .get::<Cloth>(cloth)
+        .unwrap()
+        .mesh()
+        .unwrap()
+        .clone();
+    let uv_of: std::collections::HashMap<u32, [f32; 2]> = layout
+        .vertex_particles()
+        .iter()
+        .zip(layout.uvs().unwrap())
+        .map(|(&p, &uv)| (p, uv))
+        .collect();
+    let n = particles(&app, cloth).len();
+    // A vertical blade across the disc at x = 0.1.
+    app.world_mut().write_message(ClothCut::quad(
+        Some(cloth),
+        [
+            Vec3::new(0.1, -1.0, -1.0),
+            Vec3::new(0.1, -1.0, 1.0),
+            Vec3::new(0.1, 3.0, 1.0),
+            Vec3::new(0.1, 3.0, -1.0),
+        ],
+    ));
+    run(&mut app, 90);
+    assert_valid(&app, cloth);
+    let torn = app.world().resource::<Torn>().0.clone();
+    assert!(!torn.is_empty());
+    let layout = app
+        .world()
+        .get::<Cloth>(cloth)
+        .unwrap()
+        .mesh()
+        .unwrap()
+        .clone();
+    // Each rendered vertex keeps its particle's UV: a copy its original's.
+    let origin = |p: u32| {
+        torn.iter()
+            .flat_map(|t| &t.split)
+            .find(|s| s.1 == p)
+            .map_or(p, |s| s.0)
+    };
+    for (&p, uv) in layout.vertex_particles().iter().zip(layout.uvs().unwrap()) {
+        assert_eq!(Some(uv), uv_of.get(&origin(p)), "particle {p}");
+    }
+    // The part beyond the cut fell; the pinned side still hangs.
+    let p = particles(&app, cloth);
+    assert!(p.len() > n);
+    let fallen = (0..p.len()).filter(|&i| p.positions[i].y < 0.0).count();
+    let lo = p
+        .positions
+        .iter()
+        .map(|x| x.y)
+        .fold(f32::INFINITY, f32::min);
+    let hi = p
+        .positions
+        .iter()
+        .map(|x| x.y)
+        .fold(f32::NEG_INFINITY, f32::max);
+    println!(
+        "y from {lo} to {hi}; torn {:?}",
+        torn.iter()
+            .map(|t| (t.links.len(), t.split.len()))
+            .collect::<Vec<_>>()
+    );
+    assert!(fallen > n / 4, "{fallen} of {} fell", p.len());
+    assert!(p.positions.iter().filter(|x| x.x < -0.3).all(|x| x.y > 0.0));
+}
