@@ -12,7 +12,7 @@ use bevy::ecs::schedule::ScheduleLabel;
 use bevy::prelude::*;
 use bevy_cloth::prelude::*;
 
-const WINDOWED: [&str; 10] = [
+const WINDOWED: [&str; 11] = [
     "hanging",
     "tablecloth",
     "sphere",
@@ -23,6 +23,7 @@ const WINDOWED: [&str; 10] = [
     "cape",
     "hammock",
     "tablecloth_trick",
+    "tear",
 ];
 
 fn source(name: &str) -> String {
