@@ -171,44 +171,64 @@ fn a_banner_pulled_by_its_edges_tears_at_its_fabric_s_strain() {
 
 #[test]
 fn a_straight_cut_drops_the_lower_half_and_splits_the_mesh() {
-    let n = 16;
-    let mut app = app_with_meshes();
-    record_tears(&mut app);
-    let cloth = app.world_mut().spawn(banner(n, ClothMaterial::COTTON)).id();
-    run(&mut app, 30);
-    // Across the banner 0.48 m below its top: between rows 7 and 8, nearer
-    // row 7, which opens.
-    let y = 1.52;
-    app.world_mut().write_message(ClothCut::along(
-        Some(cloth),
-        Vec3::new(-1.0, y, 0.0),
-        Vec3::new(1.0, y, 0.0),
-        Vec3::Z * 0.5,
-    ));
-    app.update();
-    let torn = app.world().resource::<Torn>().0.clone();
-    assert_eq!(torn.len(), 1);
-    assert_eq!(
-        torn[0].links.len(),
-        2 * n as usize - 1,
-        "the links the cut crossed"
-    );
-    let split: Vec<u32> = torn[0].split.iter().map(|s| s.0).collect();
-    assert_eq!(split, (7 * n..8 * n).collect::<Vec<_>>(), "row 7 splits");
-    assert_valid(&app, cloth);
-    // The rendered mesh is rebuilt with the copies.
-    let handle = app.world().get::<Mesh3d>(cloth).unwrap().0.clone();
-    let mesh = app.world().resource::<Assets<Mesh>>().get(&handle).unwrap();
-    assert_eq!(mesh.count_vertices(), (n * n + n) as usize);
-    run(&mut app, 60);
-    assert_valid(&app, cloth);
-    let p = particles(&app, cloth);
-    let up = p.positions.iter().filter(|x| x.y > 1.4).count();
-    let fallen = p.positions.iter().filter(|x| x.y < 0.5).count();
-    assert_eq!((up, fallen), (8 * n as usize, 9 * n as usize));
-    // What stays up still hangs whole: no link of it is stretched.
-    let stats = app.world().get::<ClothStats>(cloth).unwrap();
-    assert!(stats.max_strain < 0.05, "strain {}", stats.max_strain);
+    // Also with tethers: the fallen half is not held through the gap.
+    for tethers in [false, true] {
+        let n = 16;
+        let mut app = app_with_meshes();
+        record_tears(&mut app);
+        let cloth = app.world_mut().spawn(banner(n, ClothMaterial::COTTON)).id();
+        if tethers {
+            app.world_mut()
+                .entity_mut(cloth)
+                .insert(ClothTethers::default());
+        }
+        run(&mut app, 90);
+        let before = particles(&app, cloth).positions.clone();
+        // Across the banner 0.48 m below its top: between rows 7 and 8,
+        // nearer row 7, which opens.
+        let y = 1.52;
+        app.world_mut().write_message(ClothCut::along(
+            Some(cloth),
+            Vec3::new(-1.0, y, 0.0),
+            Vec3::new(1.0, y, 0.0),
+            Vec3::Z * 0.5,
+        ));
+        app.update();
+        let torn = app.world().resource::<Torn>().0.clone();
+        assert_eq!(torn.len(), 1);
+        assert_eq!(
+            torn[0].links.len(),
+            2 * n as usize - 1,
+            "the links the cut crossed"
+        );
+        let split: Vec<u32> = torn[0].split.iter().map(|s| s.0).collect();
+        assert_eq!(split, (7 * n..8 * n).collect::<Vec<_>>(), "row 7 splits");
+        assert_valid(&app, cloth);
+        // No pop: what still hangs moved less than a millimetre in the
+        // step of the cut (the links and coarse correction were rebuilt).
+        let after = &particles(&app, cloth).positions;
+        let jump = (0..(7 * n) as usize)
+            .map(|p| after[p].distance(before[p]))
+            .fold(0.0, f32::max);
+        assert!(jump < 1e-3, "the hanging half jumped {jump} m");
+        // The rendered mesh is rebuilt with the copies.
+        let handle = app.world().get::<Mesh3d>(cloth).unwrap().0.clone();
+        let mesh = app.world().resource::<Assets<Mesh>>().get(&handle).unwrap();
+        assert_eq!(mesh.count_vertices(), (n * n + n) as usize);
+        run(&mut app, 60);
+        assert_valid(&app, cloth);
+        let p = particles(&app, cloth);
+        let up = p.positions.iter().filter(|x| x.y > 1.4).count();
+        let fallen = p.positions.iter().filter(|x| x.y < 0.5).count();
+        assert_eq!(
+            (up, fallen),
+            (8 * n as usize, 9 * n as usize),
+            "tethers {tethers}"
+        );
+        // What stays up still hangs whole: no link of it is stretched.
+        let stats = app.world().get::<ClothStats>(cloth).unwrap();
+        assert!(stats.max_strain < 0.05, "strain {}", stats.max_strain);
+    }
 }
 
 #[test]
@@ -503,4 +523,36 @@ fn a_mesh_cloth_with_self_collision_is_cut_in_two_and_keeps_its_uvs() {
     );
     assert!(fallen > n / 4, "{fallen} of {} fell", p.len());
     assert!(p.positions.iter().filter(|x| x.x < -0.3).all(|x| x.y > 0.0));
+}
+
+#[test]
+fn a_worn_ribbon_cut_across_lets_its_free_end_fall_and_keeps_its_skin() {
+    let mut app = app();
+    record_tears(&mut app);
+    let (_, _, cloth) = common::wear(&mut app, 0.0);
+    run(&mut app, 30);
+    let n = particles(&app, cloth).len();
+    // Across the ribbon between its rows at y = 1.1 m and 1.0 m.
+    app.world_mut().write_message(ClothCut::along(
+        Some(cloth),
+        Vec3::new(-1.0, 1.04, -0.1),
+        Vec3::new(1.0, 1.04, -0.1),
+        Vec3::Z * 0.5,
+    ));
+    run(&mut app, 60);
+    assert_valid(&app, cloth);
+    assert_eq!(app.world().resource::<Torn>().0.len(), 1);
+    let p = particles(&app, cloth);
+    assert!(p.len() > n);
+    let skin = app.world().get::<ClothSkin>(cloth).unwrap();
+    assert_eq!(
+        (skin.rest.len(), skin.influences.len(), skin.freedom.len()),
+        (p.len(), p.len(), p.len())
+    );
+    // The skinned top stays on the body; the free end below the cut fell.
+    assert!(p.positions.iter().any(|x| x.y > 1.5));
+    assert!(
+        p.positions.iter().any(|x| x.y < 0.5),
+        "the cut-off end fell"
+    );
 }

@@ -210,6 +210,7 @@ pub(crate) struct TearQuery {
     anchors: Option<&'static mut ClothAnchors>,
     skin: Option<&'static mut ClothSkin>,
     creases: Option<&'static ClothCreaseRecord>,
+    sleep: &'static crate::plugin::sleep::ClothSleep,
 }
 
 /// Run condition of [`tear_cloths`]: a cloth tears, or a cut was written.
@@ -252,7 +253,8 @@ pub(crate) fn tear_cloths(
             continue;
         }
         let mut broken: Vec<(u32, u32)> = Vec::new();
-        if let Some(tearing) = item.tearing {
+        // A sleeping cloth has not moved since it was checked.
+        if let Some(tearing) = item.tearing.filter(|_| !item.sleep.is_asleep()) {
             if let Err(error) = tearing.validate() {
                 if !warned.contains(&entity) {
                     warned.push(entity);
@@ -282,7 +284,7 @@ pub(crate) fn tear_cloths(
                     (&item.connections.structural, k_axial),
                     (&item.connections.shear, k_diagonal),
                 ] {
-                    for l in links {
+                    for l in links.iter().filter(|l| l.rest_length > 0.0) {
                         let (force, strain) = load(l, x, k);
                         if strain > strain_limit || force > force_limit {
                             over.push((strain, (l.a.min(l.b), l.a.max(l.b))));
