@@ -302,7 +302,11 @@ fn a_thousand_random_cuts_through_pins_anchors_grabs_and_tethers_never_break_the
         let torn = app.world().resource::<Torn>().0.len();
         let p = particles(&app, cloth);
         println!("{n}×{n}: {torn} tears, {} particles", p.len());
-        assert!(torn > 10 && p.len() > (n * n) as usize);
+        assert!(torn > 5 && p.len() > (n * n) as usize);
+        if n == 3 {
+            // Cut until nothing joins its 8 triangles: 24 particles.
+            assert_eq!(p.len(), 24);
+        }
         // The anchor carries every copy of its particle.
         let anchors = app.world().get::<ClothAnchors>(cloth).unwrap();
         assert!(anchors.0.iter().all(|a| (a.particle as usize) < p.len()));

@@ -97,10 +97,14 @@ impl Blade {
 #[derive(Clone, Debug, Default)]
 pub struct TearPlan {
     splits: Vec<Split>,
+    /// How many cracks the splits belong to (a broken link or a blade
+    /// each).
+    cracks: u32,
 }
 
-/// A particle to split by a plane, and a second choice.
-type Split = (u32, Plane, Option<(u32, Plane)>);
+/// A particle to split by a plane, a second choice, and the crack it
+/// belongs to.
+type Split = (u32, Plane, Option<(u32, Plane)>, u32);
 
 impl TearPlan {
     /// Whether the plan splits nothing.
@@ -110,7 +114,14 @@ impl TearPlan {
 
     /// Adds `other`'s splits after this plan's.
     pub fn extend(&mut self, other: Self) {
-        self.splits.extend(other.splits);
+        let offset = self.cracks;
+        self.splits.extend(
+            other
+                .splits
+                .into_iter()
+                .map(|(v, p, s, c)| (v, p, s, c + offset)),
+        );
+        self.cracks += other.cracks;
     }
 }
 
@@ -139,21 +150,21 @@ fn centroid(topology: &MeshTopology, x: &[Vec3], t: u32) -> Vec3 {
 }
 
 /// Which side of `plane` triangle `t` goes to when its particle `v` (at
-/// positions `x`, m) is split: the side of its particles that are not
-/// split (`split`, nor copies: from `first_copy` on); a triangle they straddle goes to the side `v` is not
-/// on, so the crack runs through `v`; one whose particles all split, by
-/// its centroid.
+/// positions `x`, m) is split: the side of its particles that the crack
+/// does not split (`split`; a copy counts as the particle it copies); a
+/// triangle they straddle goes to the side `v` is not on, so the crack runs
+/// through `v`; one whose particles all split, by its centroid.
 fn above(
     topology: &MeshTopology,
     x: &[Vec3],
     plane: &Plane,
-    (v, split, first_copy): (u32, &HashSet<u32>, u32),
+    (v, split, origin): (u32, &HashSet<u32>, &Origins),
     t: u32,
 ) -> bool {
     let height = |p: u32| (x[p as usize] - plane.point).dot(plane.normal);
     let (mut up, mut down) = (false, false);
     for &p in &topology.triangles[t as usize] {
-        if p != v && p < first_copy && !split.contains(&p) {
+        if p != v && !split.contains(&origin.of(p)) {
             let h = height(p);
             up |= h > 0.0;
             down |= h < 0.0;
@@ -164,6 +175,24 @@ fn above(
         (false, true) => false,
         (true, true) if height(v) != 0.0 => height(v) < 0.0,
         _ => plane.above(centroid(topology, x, t)),
+    }
+}
+
+/// The particle each copy made during a tear comes from.
+struct Origins {
+    /// The first copy's index: the particle count before the tear.
+    first_copy: u32,
+    /// The original of each copy, in order.
+    of_copy: Vec<u32>,
+}
+
+impl Origins {
+    /// The particle before the tear that `p` is or copies.
+    fn of(&self, p: u32) -> u32 {
+        p.checked_sub(self.first_copy)
+            .and_then(|k| self.of_copy.get(k as usize))
+            .copied()
+            .unwrap_or(p)
     }
 }
 
@@ -185,7 +214,8 @@ pub fn break_links(x: &[Vec3], links: &[(u32, u32)]) -> TearPlan {
         };
         let at = |p: Vec3, normal: Vec3| Plane { point: p, normal };
         plan.splits
-            .push((a, at(pa, normal), Some((b, at(pb, -normal)))));
+            .push((a, at(pa, normal), Some((b, at(pb, -normal))), plan.cracks));
+        plan.cracks += 1;
     }
     plan
 }
@@ -200,7 +230,23 @@ pub fn cut(topology: &MeshTopology, x: &[Vec3], blades: &[Blade]) -> (TearPlan, 
     if x.len() < topology.len() {
         return (plan, crossed);
     }
+    // One crack per plane: the two triangles of a quad are one cut.
     let planes: Vec<Option<Plane>> = blades.iter().map(Blade::plane).collect();
+    let mut crack_of = Vec::with_capacity(blades.len());
+    let mut cracks: Vec<Plane> = Vec::new();
+    for plane in &planes {
+        crack_of.push(plane.map(|p| {
+            let same = cracks.iter().position(|c| {
+                c.normal.dot(p.normal).abs() > 1.0 - 1e-6
+                    && (p.point - c.point).dot(c.normal).abs() <= 1e-6 * (1.0 + p.point.length())
+            });
+            same.unwrap_or_else(|| {
+                cracks.push(p);
+                cracks.len() - 1
+            })
+        }));
+    }
+    plan.cracks = cracks.len() as u32;
     let mut edges: Vec<(u32, u32)> = topology
         .triangles
         .iter()
@@ -209,21 +255,29 @@ pub fn cut(topology: &MeshTopology, x: &[Vec3], blades: &[Blade]) -> (TearPlan, 
         .collect();
     edges.sort_unstable();
     edges.dedup();
-    let mut chosen = vec![false; topology.len()];
+    let mut chosen: HashSet<(u32, usize)> = HashSet::new();
     for (a, b) in edges {
         let (pa, pb) = (x[a as usize], x[b as usize]);
-        let hit = blades
-            .iter()
-            .zip(&planes)
-            .find_map(|(blade, plane)| plane.filter(|_| blade.crosses(pa, pb)));
-        let Some(plane) = hit else {
-            continue;
-        };
-        crossed.push((a, b));
-        let distance = |p: Vec3| (p - plane.point).dot(plane.normal).abs();
-        let v = if distance(pa) <= distance(pb) { a } else { b };
-        if !std::mem::replace(&mut chosen[v as usize], true) {
-            plan.splits.push((v, plane, None));
+        let mut hit = false;
+        for (blade, crack) in blades.iter().zip(&crack_of) {
+            let Some(crack) = *crack else {
+                continue;
+            };
+            if !blade.crosses(pa, pb) {
+                continue;
+            }
+            hit = true;
+            let plane = cracks[crack];
+            let distance = |p: Vec3| (p - plane.point).dot(plane.normal).abs();
+            let v = if distance(pa) <= distance(pb) { a } else { b };
+            // Once per crack: a particle where two cuts cross is split by
+            // both.
+            if chosen.insert((v, crack)) {
+                plan.splits.push((v, plane, None, crack as u32));
+            }
+        }
+        if hit {
+            crossed.push((a, b));
         }
     }
     (plan, crossed)
@@ -234,7 +288,8 @@ pub fn cut(topology: &MeshTopology, x: &[Vec3], blades: &[Blade]) -> (TearPlan, 
 pub struct TearOutcome {
     /// The particles added, each a copy of an earlier one: `(copy,
     /// original, share)`, where `share` is the fraction of the original's
-    /// mass the copy takes (dimensionless, in (0, 1)).
+    /// mass the copy takes (dimensionless, in (0, 1)). The original may be
+    /// a copy made earlier in the same tear (where two cuts cross).
     pub copies: Vec<(u32, u32, f32)>,
 }
 
@@ -245,12 +300,14 @@ impl TearOutcome {
     }
 
     /// For each particle after the tear (`len` of them), the particle before
-    /// it that it comes from (itself for the particles that were there).
+    /// it that it comes from (itself for the particles that were there; a
+    /// copy of a copy comes from the first one's original).
     pub fn origins(&self, len: usize) -> Vec<u32> {
         let mut origin: Vec<u32> = (0..len as u32).collect();
         for &(copy, original, _) in &self.copies {
+            let from = origin.get(original as usize).copied().unwrap_or(original);
             if let Some(o) = origin.get_mut(copy as usize) {
-                *o = original;
+                *o = from;
             }
         }
         origin
@@ -273,58 +330,78 @@ pub fn apply(
     }
     // The positions of the particles and of the copies made so far.
     let mut x = x[..topology.len()].to_vec();
-    // The particles the plan splits first: a triangle goes to the side of
-    // its other particles, so that a cut snaps to them.
-    // Their copies count as split too.
-    let split: HashSet<u32> = plan.splits.iter().map(|s| s.0).collect();
-    let first_copy = topology.len() as u32;
+    // The particles each crack splits first: a triangle goes to the side of
+    // its other particles, so that a cut snaps to them. Copies count as
+    // split too.
+    let mut cracks: HashMap<u32, HashSet<u32>> = HashMap::new();
+    for &(v, _, _, crack) in &plan.splits {
+        cracks.entry(crack).or_default().insert(v);
+    }
+    let none = HashSet::new();
+    let mut origin = Origins {
+        first_copy: topology.len() as u32,
+        of_copy: Vec::new(),
+    };
     let area = |topology: &MeshTopology, t: u32| {
         let [a, b, c] = topology.triangles[t as usize].map(|p| topology.positions[p as usize]);
         0.5 * (b - a).cross(c - a).length()
     };
-    for &(first, plane, second) in &plan.splits {
+    // Each particle with the copies made of it so far: a second plane
+    // through a particle splits its copies too (two cuts that cross).
+    let mut members: HashMap<u32, Vec<u32>> = HashMap::new();
+    for &(first, plane, second, crack) in &plan.splits {
+        let split = cracks.get(&crack).unwrap_or(&none);
         for (v, plane) in std::iter::once((first, plane)).chain(second) {
             let Some(fan) = adjacency.around.get(v as usize) else {
                 continue;
             };
-            let (mut upper, mut lower) = ((0.0f32, Vec::new()), (0.0f32, Vec::new()));
-            for &t in fan {
-                if !topology.triangles[t as usize].contains(&v) {
+            let family = members.get(&v).cloned().unwrap_or_else(|| vec![v]);
+            let mut any = false;
+            for m in family {
+                let (mut upper, mut lower) = ((0.0f32, Vec::new()), (0.0f32, Vec::new()));
+                for &t in fan {
+                    if !topology.triangles[t as usize].contains(&m) {
+                        continue;
+                    }
+                    let side = if above(topology, &x, &plane, (m, split, &origin), t) {
+                        &mut upper
+                    } else {
+                        &mut lower
+                    };
+                    side.0 += area(topology, t);
+                    side.1.push(t);
+                }
+                if upper.1.is_empty() || lower.1.is_empty() {
                     continue;
                 }
-                let side = if above(topology, &x, &plane, (v, &split, first_copy), t) {
-                    &mut upper
+                let (kept, moved) = if upper.0 >= lower.0 {
+                    (upper, lower)
                 } else {
-                    &mut lower
+                    (lower, upper)
                 };
-                side.0 += area(topology, t);
-                side.1.push(t);
-            }
-            if upper.1.is_empty() || lower.1.is_empty() {
-                continue;
-            }
-            let (kept, moved) = if upper.0 >= lower.0 {
-                (upper, lower)
-            } else {
-                (lower, upper)
-            };
-            let total = kept.0 + moved.0;
-            let share = if total > 0.0 { moved.0 / total } else { 0.5 };
-            let copy = topology.len() as u32;
-            outcome
-                .copies
-                .push((copy, v, share.clamp(1e-6, 1.0 - 1e-6)));
-            let rest = topology.positions[v as usize];
-            topology.positions.push(rest);
-            x.push(x[v as usize]);
-            for t in moved.1 {
-                for p in &mut topology.triangles[t as usize] {
-                    if *p == v {
-                        *p = copy;
+                let total = kept.0 + moved.0;
+                let share = if total > 0.0 { moved.0 / total } else { 0.5 };
+                let copy = topology.len() as u32;
+                outcome
+                    .copies
+                    .push((copy, m, share.clamp(1e-6, 1.0 - 1e-6)));
+                let rest = topology.positions[m as usize];
+                topology.positions.push(rest);
+                x.push(x[m as usize]);
+                for t in moved.1 {
+                    for p in &mut topology.triangles[t as usize] {
+                        if *p == m {
+                            *p = copy;
+                        }
                     }
                 }
+                members.entry(v).or_insert_with(|| vec![v]).push(copy);
+                origin.of_copy.push(v);
+                any = true;
             }
-            break;
+            if any {
+                break;
+            }
         }
     }
     outcome

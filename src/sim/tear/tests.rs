@@ -410,3 +410,49 @@ fn a_straight_cut_across_an_irregular_disc_parts_it_in_two() {
         assert_eq!(pieces(t.len(), &links), 2, "cut at {x} m, {angle} rad");
     }
 }
+
+#[test]
+fn cuts_that_cross_part_a_grid_in_the_pieces_between_them() {
+    // Blades standing across the sheet along z (at x) and along x (at z).
+    let across_x = |x: f32| {
+        Blade::quad(
+            Vec3::new(x, -1.0, -1.0),
+            Vec3::new(x, -1.0, 2.0),
+            Vec3::new(x, 1.0, 2.0),
+            Vec3::new(x, 1.0, -1.0),
+        )
+    };
+    let across_z = |z: f32| {
+        Blade::quad(
+            Vec3::new(-1.0, -1.0, z),
+            Vec3::new(2.0, -1.0, z),
+            Vec3::new(2.0, 1.0, z),
+            Vec3::new(-1.0, 1.0, z),
+        )
+    };
+    for (n, xs, zs, expected) in [
+        (9, vec![0.47], vec![0.52], 4),
+        (32, vec![0.25, 0.5, 0.75], vec![0.2, 0.4, 0.6, 0.8], 20),
+        (12, vec![0.3, 0.7], vec![0.5], 6),
+        (32, vec![], vec![0.2, 0.4, 0.6, 0.8], 5),
+        (32, vec![0.25, 0.5, 0.75], vec![], 4),
+        (32, vec![0.5], vec![], 2),
+        (32, vec![0.25], vec![0.2], 4),
+        (32, vec![0.5], vec![0.2], 4),
+        (32, vec![0.5], vec![0.4], 4),
+        (32, vec![0.75], vec![0.6], 4),
+        (32, vec![0.25], vec![0.8], 4),
+        (32, vec![0.25, 0.75], vec![0.2, 0.4, 0.6, 0.8], 15),
+    ] {
+        let (_, mut topology) = grid(n);
+        let blades: Vec<Blade> = xs
+            .iter()
+            .flat_map(|&x| across_x(x))
+            .chain(zs.iter().flat_map(|&z| across_z(z)))
+            .collect();
+        let (_, _, links) = cut_at_rest(&mut topology, &blades);
+        assert_valid(&topology);
+        let got = pieces(topology.len(), &links);
+        assert_eq!(got, expected, "{n}×{n} cut at x {xs:?} and z {zs:?}");
+    }
+}
