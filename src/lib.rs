@@ -56,8 +56,8 @@
 //!   never reads the frame delta; the mesh follows in `PostUpdate`,
 //!   interpolated between fixed steps.
 //! - A game reacts to [`events`](plugin::events) (grab, release, rest, wake,
-//!   divergence) and reads [`ClothStats`] and the
-//!   [`diagnostics`](plugin::diagnostics).
+//!   divergence, and [`tear`](plugin::tear)s) and reads [`ClothStats`] and
+//!   the [`diagnostics`](plugin::diagnostics).
 //! - Two layers: [`sim`] is the simulation, plain data and plain functions
 //!   over slices usable without an `App` ([`sim::step::step_cloth`],
 //!   [`sim::guard::step_guarded`]); [`plugin`] is everything ECS, its

@@ -58,6 +58,12 @@ fn assert_valid(app: &App, cloth: Entity) {
     }
 }
 
+/// The mesh layout of a mesh (or torn) cloth.
+fn layout_of(app: &App, cloth: Entity) -> MeshLayout {
+    let shape = app.world().get::<Cloth>(cloth).unwrap();
+    shape.mesh().expect("a mesh cloth").clone()
+}
+
 fn assert_layout(layout: &MeshLayout, n: usize) {
     let vertices = layout.vertex_particles();
     assert!(vertices.iter().all(|&q| (q as usize) < n));
@@ -460,13 +466,7 @@ fn a_mesh_cloth_with_self_collision_is_cut_in_two_and_keeps_its_uvs() {
         ))
         .id();
     run(&mut app, 10);
-    let layout = app
-        .world()
-        .get::<Cloth>(cloth)
-        .unwrap()
-        .mesh()
-        .unwrap()
-        .clone();
+    let layout = layout_of(&app, cloth);
     let uv_of: std::collections::HashMap<u32, [f32; 2]> = layout
         .vertex_particles()
         .iter()
@@ -488,13 +488,7 @@ fn a_mesh_cloth_with_self_collision_is_cut_in_two_and_keeps_its_uvs() {
     assert_valid(&app, cloth);
     let torn = app.world().resource::<Torn>().0.clone();
     assert!(!torn.is_empty());
-    let layout = app
-        .world()
-        .get::<Cloth>(cloth)
-        .unwrap()
-        .mesh()
-        .unwrap()
-        .clone();
+    let layout = layout_of(&app, cloth);
     // Each rendered vertex keeps its particle's UV: a copy its original's.
     let origin = |p: u32| {
         torn.iter()
@@ -509,22 +503,6 @@ fn a_mesh_cloth_with_self_collision_is_cut_in_two_and_keeps_its_uvs() {
     let p = particles(&app, cloth);
     assert!(p.len() > n);
     let fallen = (0..p.len()).filter(|&i| p.positions[i].y < 0.0).count();
-    let lo = p
-        .positions
-        .iter()
-        .map(|x| x.y)
-        .fold(f32::INFINITY, f32::min);
-    let hi = p
-        .positions
-        .iter()
-        .map(|x| x.y)
-        .fold(f32::NEG_INFINITY, f32::max);
-    println!(
-        "y from {lo} to {hi}; torn {:?}",
-        torn.iter()
-            .map(|t| (t.links.len(), t.split.len()))
-            .collect::<Vec<_>>()
-    );
     assert!(fallen > n / 4, "{fallen} of {} fell", p.len());
     assert!(p.positions.iter().filter(|x| x.x < -0.3).all(|x| x.y > 0.0));
 }

@@ -26,6 +26,9 @@ use crate::sim::settings::{ClothModel, Integrator, SimSettings};
 ///
 /// Particles are simulated in world space; keep the entity's `Transform` at
 /// identity unless you want the rendered mesh offset from the simulation.
+///
+/// A grid cloth that tears ([`tear`](crate::plugin::tear)) becomes a mesh
+/// cloth with the same particles and links.
 #[derive(Component, Clone, Debug, PartialEq, Reflect)]
 #[reflect(Component)]
 pub enum Cloth {

@@ -10,6 +10,7 @@
 //! | [`ClothAtRest`] | no free or grabbed particle has moved faster than [`REST_SPEED`] for [`REST_STEPS`] fixed steps (the cloth then sleeps) |
 //! | [`ClothWoke`] | a sleeping cloth is woken, or a resting one's fastest free or grabbed particle passes [`WAKE_SPEED`] |
 //! | [`ClothDiverged`] | the divergence guard redid a step (also a [`Message`]) |
+//! | [`ClothTorn`](crate::plugin::tear::ClothTorn) | links broke ([`ClothTearing`](crate::plugin::tear::ClothTearing)) or a [`ClothCut`](crate::plugin::tear::ClothCut) crossed the cloth |
 //!
 //! ```
 //! # use bevy::prelude::*;

@@ -296,11 +296,23 @@ pub(crate) fn tear_cloths(
                 broken.extend(over.into_iter().map(|(_, pair)| pair));
             }
         }
-        let blades: Vec<Blade> = cuts
+        let mut blades: Vec<Blade> = cuts
             .iter()
             .filter(|c| c.cloth.is_none_or(|e| e == entity))
             .flat_map(|c| c.blades.iter().copied())
             .collect();
+        if !blades.is_empty() {
+            // A cut that misses the cloth's box costs it nothing more.
+            let (lo, hi) = x
+                .iter()
+                .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), p| {
+                    (lo.min(*p), hi.max(*p))
+                });
+            blades.retain(|blade| {
+                let [a, b, c] = blade.0;
+                a.min(b).min(c).cmple(hi).all() && a.max(b).max(c).cmpge(lo).all()
+            });
+        }
         if broken.is_empty() && blades.is_empty() {
             continue;
         }
@@ -313,11 +325,12 @@ pub(crate) fn tear_cloths(
         let mut plan = tear::break_links(x, &broken);
         let (cut, crossed) = tear::cut(&topology, x, &blades);
         plan.extend(cut);
-        let rule_before = topology.connections();
+        let before = topology.clone();
         let outcome = tear::apply(&mut topology, &adjacency, x, &plan);
         if outcome.is_empty() {
             continue;
         }
+        let rule_before = before.connections();
         let origins = outcome.origins(topology.len());
         let links = tear::rebuild(
             &item.connections,
