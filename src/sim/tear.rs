@@ -20,7 +20,9 @@
 //!   the edge's end nearer the blade's plane, by that plane: the cut snaps
 //!   to the particles next to it, and every edge it crosses opens. A
 //!   straight cut across a grid opens it along the row of particles
-//!   nearest to the cut.
+//!   nearest to the cut. Blades in one plane are one cut; where two cuts
+//!   cross, the particle there is split by both (its copy too), so crossing
+//!   cuts part a cloth into the pieces between them.
 //!
 //! The links are then those of the new triangles ([`rebuild`]): each side
 //! keeps its own edge links, and no Type 1 or Type 2 link reaches across an
