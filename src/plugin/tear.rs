@@ -49,9 +49,9 @@ use crate::sim::connections::Link;
 use crate::sim::settings::ClothModel;
 use crate::sim::tear::{self, Adjacency, Blade, TearOutcome};
 
-/// The tear strain (dimensionless) of a cloth whose material is
-/// [`ClothMaterial::Raw`], and of [`ClothTearing::default`]'s fabric-less
-/// use: 0.15, cotton's.
+/// The strain (dimensionless) at which a cloth with a raw material
+/// ([`ClothMaterial::Raw`]) tears unless its [`ClothTearing`] sets one:
+/// 0.15, cotton's.
 pub const DEFAULT_TEAR_STRAIN: f32 = 0.15;
 
 /// Lets a cloth tear: after each fixed step, a Type 1 link stretched past
