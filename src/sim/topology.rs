@@ -174,8 +174,10 @@ impl MeshTopology {
 
     /// The topology of `grid`: its particles in the grid's order, at rest
     /// in the xz plane (`(u, 0, v)` of [`Grid::rest_uv`], m), and its
-    /// triangles ([`Grid::triangle`]). Its [`connections`](Self::connections)
-    /// are the grid's own ([`Connections::grid`]).
+    /// triangles ([`Grid::triangle`]). On square cells its
+    /// [`connections`](Self::connections) are the grid's own
+    /// ([`Connections::grid`]); on long cells the continuation rule picks
+    /// some other Type 2 links.
     pub fn from_grid(grid: &Grid) -> Self {
         let positions: Vec<Vec3> = (0..grid.len() as u32)
             .map(|p| {
