@@ -263,7 +263,7 @@ fn crease_panel(
                         };
                         ui.label(format!(
                             "({:.2}, {:.2}) to ({:.2}, {:.2}) m · {amount} · {:?}",
-                            crease.from.x, crease.from.y, crease.to.x, crease.to.y, crease.side
+                            crease.from.x, crease.from.z, crease.to.x, crease.to.z, crease.side
                         ));
                         if ui.small_button("delete").clicked() {
                             remove = Some(k);

@@ -7,7 +7,7 @@ use std::collections::BTreeSet;
 
 use bevy::prelude::*;
 use bevy_cloth::prelude::*;
-use bevy_cloth::sim::crease::{Crease, FoldSide, crossing};
+use bevy_cloth::sim::crease::{Crease, FoldSide, RestSurface, crossing};
 use common::{app, particles};
 
 /// A flat, horizontal 15×15, 1 m sheet (rest `uv` = its `x`, `z` + ½).
@@ -56,7 +56,11 @@ fn a_line_through_a_particle_column_selects_the_connections_across_it() {
     let crease = Crease::new(Vec2::new(0.5, 0.0), Vec2::new(0.5, 1.0)); // column 7
     let got = pairs(
         &cloth,
-        &crossing(cloth.cloth.grid().unwrap(), &cloth.connections, &crease),
+        &crossing(
+            &RestSurface::grid(cloth.cloth.grid().unwrap()),
+            &cloth.connections,
+            &crease,
+        ),
     );
     // Independently: ends on strictly opposite sides of column 7.
     let want: BTreeSet<(u32, u32)> = type2(&cloth)
@@ -75,7 +79,11 @@ fn a_45_degree_line_selects_the_connections_across_the_diagonal() {
     let crease = Crease::new(Vec2::ZERO, Vec2::ONE);
     let got = pairs(
         &cloth,
-        &crossing(cloth.cloth.grid().unwrap(), &cloth.connections, &crease),
+        &crossing(
+            &RestSurface::grid(cloth.cloth.grid().unwrap()),
+            &cloth.connections,
+            &crease,
+        ),
     );
     let want: BTreeSet<(u32, u32)> = type2(&cloth)
         .into_iter()
@@ -240,7 +248,7 @@ fn a_crease_closes_over_its_closing_time_and_stays_closed_when_another_comes() {
         let mut cloth = sheet();
         let grid = cloth.cloth.grid().unwrap().clone();
         let errors = apply_creases(
-            &grid,
+            &RestSurface::grid(&grid),
             &mut cloth.connections,
             &mut CreaseRecord::default(),
             creases,
@@ -319,7 +327,7 @@ fn a_sharp_crease_stays_finite_with_every_explicit_integrator() {
         let mut cloth = common::hanging(15);
         let sharp = Crease::new(Vec2::new(0.0, 0.5), Vec2::new(1.0, 0.5)).with_ratio(0.3);
         let errors = apply_creases(
-            cloth.cloth.grid().unwrap(),
+            &RestSurface::grid(cloth.cloth.grid().unwrap()),
             &mut cloth.connections,
             &mut CreaseRecord::default(),
             &[sharp],
@@ -348,7 +356,11 @@ fn a_sharp_crease_stays_finite_with_every_explicit_integrator() {
 
 #[test]
 fn invalid_creases_are_errors() {
-    let cloth = sheet().cloth.grid().unwrap().clone();
+    let sheet = sheet();
+    let (cloth, links) = (
+        RestSurface::grid(sheet.cloth.grid().unwrap()),
+        &sheet.connections,
+    );
     let base = Crease::new(Vec2::new(0.5, 0.0), Vec2::new(0.5, 1.0));
     for bad in [
         base.with_ratio(0.0),
@@ -360,11 +372,14 @@ fn invalid_creases_are_errors() {
         Crease::new(Vec2::new(f32::INFINITY, 0.0), Vec2::ONE),
     ] {
         assert!(
-            matches!(bad.validate(&cloth), Err(ClothError::InvalidCrease(_))),
+            matches!(
+                bad.validate(&cloth, links),
+                Err(ClothError::InvalidCrease(_))
+            ),
             "{bad:?}"
         );
     }
-    assert!(base.validate(&cloth).is_ok());
+    assert!(base.validate(&cloth, links).is_ok());
 }
 
 /// Signed height σ (m) of the middle hinge (column 7, row 7) over the

@@ -6,7 +6,7 @@ mod common;
 
 use bevy::prelude::*;
 use bevy_cloth::prelude::*;
-use bevy_cloth::sim::crease::Crease;
+use bevy_cloth::sim::crease::{Crease, RestSurface};
 use bevy_cloth::sim::grid::MAX_PARTICLES;
 use common::{app, particles};
 use proptest::prelude::*;
@@ -75,7 +75,8 @@ proptest! {
         let cloth = common::hanging(7);
         let crease = Crease::new(Vec2::new(fx, fy), Vec2::new(tx, ty));
         let crease = if by_angle { crease.with_angle(value) } else { crease.with_ratio(value) };
-        let valid = crease.validate(cloth.cloth.grid().unwrap()).is_ok();
+        let surface = RestSurface::grid(cloth.cloth.grid().unwrap());
+        let valid = crease.validate(&surface, &cloth.connections).is_ok();
         let mut app = app();
         let e = app.world_mut().spawn((cloth, ClothCreases(vec![crease]))).id();
         for _ in 0..3 {

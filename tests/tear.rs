@@ -426,7 +426,7 @@ fn a_creased_sheet_cut_across_its_crease_keeps_the_crease_on_each_side() {
     assert_eq!(app.world().resource::<Torn>().0.len(), 1);
     assert_valid(&app, cloth);
     // The crease ends at the cut: its links across the cut are gone, the
-    // rest stay, and the record of the rest lengths it changed is dropped.
+    // rest stay.
     let after = app
         .world()
         .get::<ClothConnections>(cloth)
@@ -437,14 +437,31 @@ fn a_creased_sheet_cut_across_its_crease_keeps_the_crease_on_each_side() {
         after > 0 && after < before,
         "{after} of {before} crease links"
     );
-    assert!(
-        app.world()
-            .get::<bevy_cloth::plugin::crease::ClothCreaseRecord>(cloth)
-            .is_none()
-    );
+    // Removed, the crease gives back every rest length it changed, on
+    // both pieces: each Type 2 link rests at its ends' rest distance.
     app.world_mut().entity_mut(cloth).remove::<ClothCreases>();
     run(&mut app, 10);
     assert_valid(&app, cloth);
+    let world = app.world();
+    let rest = &world
+        .get::<Cloth>(cloth)
+        .unwrap()
+        .mesh()
+        .unwrap()
+        .topology()
+        .positions;
+    let links = world.get::<ClothConnections>(cloth).unwrap();
+    assert!(links.crease.is_empty());
+    for l in links.type2() {
+        let want = rest[l.a as usize].distance(rest[l.b as usize]);
+        assert!(
+            (l.rest_length - want).abs() < 1e-5,
+            "{}–{} rests at {} m, its ends {want} m apart",
+            l.a,
+            l.b,
+            l.rest_length
+        );
+    }
 }
 
 #[test]

@@ -6,16 +6,16 @@
 //! folds as a hand would fold it rather than in one step. Changing or
 //! removing `ClothCreases` restores the original rest lengths exactly and
 //! rebuilds only the crease connections; a crease that stays in the list
-//! keeps its fold. Creases are lines in a grid's rest `(u, v)`
-//! coordinates: a mesh cloth has none, and its `ClothCreases` are ignored
-//! with a warning. Cloths without creases do no crease work (the system
+//! keeps its fold. A crease is a segment in the cloth's rest space
+//! ([`RestSurface`]): a grid's rest `(u, 0, v)`, a mesh cloth's own mesh
+//! coordinates. Cloths without creases do no crease work (the system
 //! runs only while some cloth has `ClothCreases`, and touches a cloth only
 //! when its creases changed or one of them is still closing).
 
 use bevy::prelude::*;
 
 use crate::plugin::components::{Cloth, ClothConnections};
-use crate::sim::crease::{Crease, CreaseRecord, apply_closing, restore};
+use crate::sim::crease::{Crease, CreaseRecord, RestSurface, apply_closing, restore};
 
 /// How long a new crease takes to close, s: its fold angle grows linearly
 /// from 0 to the whole fold over this time.
@@ -77,11 +77,9 @@ pub(crate) fn update_creases(
         if !changed && !record.as_ref().is_some_and(|r| r.closing()) {
             continue;
         }
-        let Some(grid) = cloth.grid() else {
-            if changed && !creases.0.is_empty() {
-                warn!("the creases of cloth {entity} are ignored: creases need a grid cloth");
-            }
-            continue;
+        let surface = match cloth {
+            Cloth::Grid(grid) => RestSurface::grid(grid),
+            Cloth::Mesh(layout) => RestSurface::mesh(layout.topology(), &connections),
         };
         let mut fresh = ClothCreaseRecord::default();
         let had_record = record.is_some();
@@ -110,7 +108,7 @@ pub(crate) fn update_creases(
             }
         }
         let errors = apply_closing(
-            grid,
+            &surface,
             &mut connections,
             &mut record.record,
             record.closing.iter().map(|(c, f)| (c, *f)),

@@ -15,8 +15,9 @@
 //!
 //! - the links are rebuilt ([`sim::tear::rebuild`](crate::sim::tear::rebuild)):
 //!   rest lengths carry over, nothing links or bends across the tear, and a
-//!   crease across it ends there. The crease record is dropped: a torn
-//!   cloth keeps its creases as they are;
+//!   crease across it ends there. The crease record follows the links
+//!   ([`CreaseRecord::remap`](crate::sim::crease::CreaseRecord::remap)), so
+//!   creases changed or removed later restore the torn cloth's rest lengths;
 //! - a split particle's copy keeps the pins of the builder, the game, an
 //!   anchor (the anchor gets an entry for the copy) and a skin (the copy
 //!   takes the skin's binding); a grab or the pointer holds the original
@@ -209,7 +210,7 @@ pub(crate) struct TearQuery {
     previous: Option<&'static mut ClothPrevious>,
     anchors: Option<&'static mut ClothAnchors>,
     skin: Option<&'static mut ClothSkin>,
-    creases: Option<&'static ClothCreaseRecord>,
+    creases: Option<&'static mut ClothCreaseRecord>,
     sleep: &'static crate::plugin::sleep::ClothSleep,
 }
 
@@ -338,12 +339,12 @@ pub(crate) fn tear_cloths(
             &topology.connections(),
             &origins,
         );
+        if let Some(record) = item.creases.as_mut() {
+            record.record.remap(&item.connections, &links, &origins);
+        }
         split_state(&mut item, &outcome);
         item.connections.0 = links;
         *item.cloth = Cloth::Mesh(layout.torn(topology));
-        if item.creases.is_some() {
-            commands.entity(entity).try_remove::<ClothCreaseRecord>();
-        }
         broken.extend(crossed);
         broken.sort_unstable();
         broken.dedup();

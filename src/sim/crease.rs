@@ -5,22 +5,26 @@
 //!
 //! Beyond the paper (which only folds along grid lines and whose folds can
 //! flip):
-//! - a [`Crease`] is a segment in any direction; a connection is selected
-//!   when its ends lie strictly on opposite sides of the segment's line and
-//!   it crosses the segment itself (a sign test in rest `(u, v)` metres,
-//!   §9.5);
+//! - a [`Crease`] is a segment in any direction in the cloth's rest space
+//!   ([`RestSurface`]: a grid's `(u, 0, v)`, a mesh's own coordinates), on
+//!   grid and mesh cloths alike; a polyline is one crease per segment. A
+//!   connection is selected when its ends lie strictly on opposite sides of
+//!   the plane through the segment along the ends' rest normal, and it
+//!   crosses that plane beside the segment itself (on a grid: a sign test
+//!   in rest `(u, v)` metres, §9.5);
 //! - every selected connection gets its own rest length from the fold
-//!   geometry (§9.2): for ends at distances `d_a`, `d_b` from the line and a
+//!   geometry (§9.2): for ends at distances `d_a`, `d_b` from that plane and a
 //!   fold (turning) angle `β`, `L'² = L² − 2 d_a d_b (1 − cos β)`. A ratio
 //!   `r` means the angle that gives the axial connection centred on the
 //!   hinge `L' = rL`, `β = 2 acos r` (so `r = 0.7` folds about 91°), and
 //!   diagonal connections get their own ratio;
 //! - [`FoldSide::Mountain`] or [`FoldSide::Valley`] adds the fold-direction
 //!   term of §9.4b on each crossing triple `(a, b, c)` (hinge `b`, the
-//!   particle midway): while the hinge's signed height
-//!   `σ = (x_b − ½(x_a + x_c))·n_b` is below `σ_min` on the chosen side, a
-//!   force `k_σ(σ_min − σ·s)·s·n_b` lifts it (and half of it pulls on each
-//!   end), so the fold cannot flip. [`FoldSide::Free`] is the paper's
+//!   particle midway; on a mesh the ends' common neighbour, whose `σ_min`
+//!   allows for its distance from the plane): while the hinge's signed
+//!   height `σ = (x_b − ½(x_a + x_c))·n_b` is below `σ_min` on the chosen
+//!   side, a force `k_σ(σ_min − σ·s)·s·n_b` lifts it (and half of it pulls
+//!   on each end), so the fold cannot flip. [`FoldSide::Free`] is the paper's
 //!   behaviour.
 //!
 //! The angle of §9.2 is that of rigid flaps: a sheet stiff enough in
@@ -33,12 +37,17 @@
 //! can change or go at any time. In an app, the `ClothCreases` component
 //! holds a cloth's creases.
 
-use bevy::math::Vec2;
+use std::collections::{HashMap, HashSet};
+
+use bevy::math::{Vec2, Vec3, Vec3Swizzles};
 use bevy::reflect::Reflect;
 
 use crate::error::ClothError;
 use crate::sim::connections::{Connections, FoldTriple, Link, LinkFamily};
-use crate::sim::grid::Grid;
+
+mod surface;
+
+pub use surface::RestSurface;
 
 /// Which way a crease folds.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Reflect)]
@@ -46,8 +55,9 @@ pub enum FoldSide {
     /// Either way, and it may flip (the paper).
     #[default]
     Free,
-    /// The hinge rises along the cloth's normal (`+v × +u` side up for a
-    /// [`ClothBuilder`](crate::ClothBuilder) sheet).
+    /// The hinge rises along the cloth's rest normal (`+v × +u` side up
+    /// for a [`ClothBuilder`](crate::ClothBuilder) sheet, the side its
+    /// triangles wind counter-clockwise about on a mesh cloth).
     Mountain,
     /// The hinge sinks.
     Valley,
@@ -73,13 +83,16 @@ impl FoldAmount {
     }
 }
 
-/// One fold line of a cloth.
+/// One fold line of a cloth: a segment in its rest space (m,
+/// [`RestSurface`]). A fold along a polyline is one crease per segment; a
+/// connection two of them select is folded by the first.
 #[derive(Clone, Copy, Debug, PartialEq, Reflect)]
 pub struct Crease {
-    /// Start of the segment in rest coordinates `(u, v)`, m.
-    pub from: Vec2,
-    /// End of the segment in rest coordinates `(u, v)`, m.
-    pub to: Vec2,
+    /// Start of the segment in the cloth's rest space, m: `(u, 0, v)` on a
+    /// grid cloth ([`Crease::new`]), the mesh's coordinates on a mesh cloth.
+    pub from: Vec3,
+    /// End of the segment in the cloth's rest space, m.
+    pub to: Vec3,
     /// How far it folds.
     pub amount: FoldAmount,
     /// Which way it folds.
@@ -89,9 +102,17 @@ pub struct Crease {
 }
 
 impl Crease {
-    /// A free crease from `from` to `to` (rest `(u, v)`, m) with the paper's
-    /// ratio 0.7 and `k_σ` = 20 N/m.
+    /// A free crease from `from` to `to` in a grid's rest coordinates
+    /// `(u, v)` (m; the rest space's `(u, 0, v)`, which is also the xz plane
+    /// of a flat mesh) with the paper's ratio 0.7 and `k_σ` = 20 N/m.
     pub fn new(from: Vec2, to: Vec2) -> Self {
+        Self::on_rest(Vec3::new(from.x, 0.0, from.y), Vec3::new(to.x, 0.0, to.y))
+    }
+
+    /// A free crease from `from` to `to` in the cloth's rest space (m): a
+    /// mesh cloth's mesh coordinates, the points on or near its rest
+    /// surface. Ratio 0.7, `k_σ` = 20 N/m.
+    pub fn on_rest(from: Vec3, to: Vec3) -> Self {
         Self {
             from,
             to,
@@ -121,8 +142,13 @@ impl Crease {
 
     /// Checks the crease against `cloth`: finite values, a ratio in (0, 1]
     /// or an angle in [0, π), a positive length, and a segment that meets
-    /// the cloth's rest rectangle.
-    pub fn validate(&self, cloth: &Grid) -> Result<(), ClothError> {
+    /// the cloth: a grid's rest rectangle (seen along `y`), a mesh's
+    /// surface (some Type 2 connection of `connections` crosses it).
+    pub fn validate(
+        &self,
+        cloth: &RestSurface,
+        connections: &Connections,
+    ) -> Result<(), ClothError> {
         let finite = self.from.is_finite() && self.to.is_finite() && self.stiffness.is_finite();
         if !finite || self.stiffness < 0.0 {
             return Err(ClothError::InvalidCrease(
@@ -143,7 +169,11 @@ impl Crease {
         if self.from.distance(self.to) < 1e-6 {
             return Err(ClothError::InvalidCrease("the segment has no length"));
         }
-        if !segment_meets_rect(self.from, self.to, cloth.size) {
+        let meets = match cloth.grid_size() {
+            Some(size) => segment_meets_rect(self.from.xz(), self.to.xz(), size),
+            None => !crossing(cloth, connections, self).is_empty(),
+        };
+        if !meets {
             return Err(ClothError::InvalidCrease("the segment misses the cloth"));
         }
         Ok(())
@@ -183,37 +213,105 @@ pub struct CreaseRecord {
     changed: Vec<(LinkFamily, usize, f32)>,
 }
 
-/// Which side of the line through `p → q` point `x` is on (signed, m²).
-fn side(p: Vec2, q: Vec2, x: Vec2) -> f32 {
-    (q - p).perp_dot(x - p)
+impl CreaseRecord {
+    /// Follows an edit of the links from `old` to `new` in which particle
+    /// `p` of `new` stands for particle `origin[p]` of `old` (a tear's
+    /// copies, [`TearOutcome::origins`](crate::sim::tear::TearOutcome::origins)):
+    /// every link of `new` that stands for a link the creases changed
+    /// keeps that link's original rest length; a link that is gone is
+    /// forgotten.
+    pub fn remap(&mut self, old: &Connections, new: &Connections, origin: &[u32]) {
+        let key = |a: u32, b: u32| (a.min(b), a.max(b));
+        let from = |p: u32| origin.get(p as usize).copied().unwrap_or(p);
+        let wanted: HashMap<(LinkFamily, (u32, u32)), f32> = self
+            .changed
+            .drain(..)
+            .filter_map(|(family, k, rest)| {
+                let l = old.family(family).get(k)?;
+                Some(((family, key(l.a, l.b)), rest))
+            })
+            .collect();
+        if wanted.is_empty() {
+            return;
+        }
+        for family in [
+            LinkFamily::Structural,
+            LinkFamily::Shear,
+            LinkFamily::Bend,
+            LinkFamily::BendDiagonal,
+        ] {
+            for (j, m) in new.family(family).iter().enumerate() {
+                if let Some(&rest) = wanted.get(&(family, key(from(m.a), from(m.b)))) {
+                    self.changed.push((family, j, rest));
+                }
+            }
+        }
+    }
 }
 
-/// The Type 2 connections of `connections` that `crease` selects: their
-/// ends (rest `uv`) strictly on opposite sides of its line, crossing the
-/// segment itself. Returns (family, index in that family).
-pub fn crossing(
-    cloth: &Grid,
-    connections: &Connections,
-    crease: &Crease,
-) -> Vec<(LinkFamily, usize)> {
-    let (p, q) = (crease.from, crease.to);
+/// A Type 2 connection a crease selects: its family, its index there, its
+/// ends' distances from the crease's plane (m), and that plane's unit
+/// normal.
+struct Crossing {
+    family: LinkFamily,
+    index: usize,
+    distances: (f32, f32),
+    across: Vec3,
+}
+
+/// The Type 2 connections of `connections` that `crease` selects on
+/// `cloth` (module docs), with their ends' distances from its plane.
+fn crossings(cloth: &RestSurface, connections: &Connections, crease: &Crease) -> Vec<Crossing> {
+    let (p, along) = (crease.from, crease.to - crease.from);
     let mut out = Vec::new();
     for family in [LinkFamily::Bend, LinkFamily::BendDiagonal] {
-        for (k, l) in connections.family(family).iter().enumerate() {
-            let (a, c) = (cloth.rest_uv(l.a), cloth.rest_uv(l.b));
-            let (sa, sc) = (side(p, q, a), side(p, q, c));
+        for (index, l) in connections.family(family).iter().enumerate() {
+            if l.a as usize >= cloth.len() || l.b as usize >= cloth.len() {
+                continue;
+            }
+            let (a, c) = (cloth.position(l.a), cloth.position(l.b));
+            let normal = cloth.normal(l.a) + cloth.normal(l.b);
+            // The plane through the segment along the rest normal.
+            let Some(across) = along.cross(normal).try_normalize() else {
+                continue;
+            };
+            let (sa, sc) = (across.dot(a - p), across.dot(c - p));
             if sa * sc >= 0.0 {
                 continue;
             }
-            // Where the connection meets the line, as a fraction of p → q.
+            // Where the connection meets the plane, as a fraction of p → q,
+            // and how far from the segment's line (0 on a flat cloth; on a
+            // curved one this keeps a crease on one side of a tube off the
+            // other).
             let hit = a + (c - a) * (sa / (sa - sc));
-            let t = (hit - p).dot(q - p) / (q - p).length_squared();
-            if (0.0..=1.0).contains(&t) {
-                out.push((family, k));
+            let t = (hit - p).dot(along) / along.length_squared();
+            let off = hit.distance(p + t * along);
+            if (0.0..=1.0).contains(&t) && off <= a.distance(c) {
+                out.push(Crossing {
+                    family,
+                    index,
+                    distances: (sa.abs(), sc.abs()),
+                    across,
+                });
             }
         }
     }
     out
+}
+
+/// The Type 2 connections of `connections` that `crease` selects on
+/// `cloth`: their ends strictly on opposite sides of the plane through the
+/// segment along the ends' rest normal, crossing it beside the segment
+/// itself. Returns (family, index in that family).
+pub fn crossing(
+    cloth: &RestSurface,
+    connections: &Connections,
+    crease: &Crease,
+) -> Vec<(LinkFamily, usize)> {
+    crossings(cloth, connections, crease)
+        .into_iter()
+        .map(|c| (c.family, c.index))
+        .collect()
 }
 
 /// Applies `creases` to `connections`: first restores what `record` says
@@ -221,7 +319,7 @@ pub fn crossing(
 /// tension springs and (for a chosen side) the fold triples. Creases that
 /// fail [`Crease::validate`] are skipped and returned as errors.
 pub fn apply_creases(
-    cloth: &Grid,
+    cloth: &RestSurface,
     connections: &mut Connections,
     record: &mut CreaseRecord,
     creases: &[Crease],
@@ -235,15 +333,16 @@ pub fn apply_creases(
 /// follows `L'² = L² − 2 d_a d_b (1 − cos(fraction · β))`. A fraction
 /// outside `[0, 1]` is clamped to it; NaN folds the whole way.
 pub fn apply_closing<'a>(
-    cloth: &Grid,
+    cloth: &RestSurface,
     connections: &mut Connections,
     record: &mut CreaseRecord,
     creases: impl IntoIterator<Item = (&'a Crease, f32)>,
 ) -> Vec<ClothError> {
     restore(connections, record);
     let mut errors = Vec::new();
+    let mut folded = HashSet::new();
     for (crease, fraction) in creases {
-        if let Err(e) = crease.validate(cloth) {
+        if let Err(e) = crease.validate(cloth, connections) {
             errors.push(e);
             continue;
         }
@@ -253,23 +352,23 @@ pub fn apply_closing<'a>(
             fraction.clamp(0.0, 1.0)
         };
         let beta = crease.amount.angle() * fraction;
-        let dir = (crease.to - crease.from).normalize();
         let sign = match crease.side {
             FoldSide::Free => 0.0,
             FoldSide::Mountain => 1.0,
             FoldSide::Valley => -1.0,
         };
-        for (family, k) in crossing(cloth, connections, crease) {
+        for crossing in crossings(cloth, connections, crease) {
+            let (family, k) = (crossing.family, crossing.index);
+            // A connection an earlier crease of this list folds stays its.
+            if !folded.insert((family, k)) {
+                continue;
+            }
             let links = match family {
                 LinkFamily::Bend => &mut connections.bend,
                 _ => &mut connections.bend_diagonal,
             };
             let l = links[k];
-            let (a, c) = (cloth.rest_uv(l.a), cloth.rest_uv(l.b));
-            let (da, dc) = (
-                dir.perp_dot(a - crease.from).abs(),
-                dir.perp_dot(c - crease.from).abs(),
-            );
+            let (da, dc) = crossing.distances;
             let original = record
                 .changed
                 .iter()
@@ -291,24 +390,31 @@ pub fn apply_closing<'a>(
                 b: l.b,
                 rest_length: shortened,
             });
-            if sign != 0.0 {
-                let (ia, ja) = (l.a % cloth.cols, l.a / cloth.cols);
-                let (ic, jc) = (l.b % cloth.cols, l.b / cloth.cols);
-                let (ih, jh) = ((ia + ic) / 2, (ja + jc) / 2);
-                let hinge = cloth.index(ih, jh);
-                let around = [
-                    cloth.index(ih.saturating_sub(1), jh),
-                    cloth.index((ih + 1).min(cloth.cols - 1), jh),
-                    cloth.index(ih, jh.saturating_sub(1)),
-                    cloth.index(ih, (jh + 1).min(cloth.rows - 1)),
-                ];
+            let Some((hinge, around)) = cloth.hinge(l.a, l.b).filter(|_| sign != 0.0) else {
+                continue;
+            };
+            // Half the hinge's height over its ends when rigid flaps fold
+            // by β: `sin(β/2)(½(d_a + d_c) − e)` for a hinge `e` m from the
+            // plane, `sin(β/2) L/2` for a grid's (on the line; its diagonal
+            // connections keep that of the axial ones).
+            let lift = (beta / 2.0).sin().min(0.5);
+            let min_height = if cloth.grid_size().is_some() {
+                0.25 * original * lift
+            } else {
+                let off = crossing
+                    .across
+                    .dot(cloth.position(hinge) - crease.from)
+                    .abs();
+                0.5 * lift * (0.5 * (da + dc) - off)
+            };
+            if min_height > 0.0 {
                 connections.fold.push(FoldTriple {
                     a: l.a,
                     hinge,
                     c: l.b,
                     around,
                     sign,
-                    min_height: 0.25 * original * (beta / 2.0).sin().min(0.5),
+                    min_height,
                     stiffness: crease.stiffness,
                 });
             }
