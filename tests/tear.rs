@@ -555,3 +555,55 @@ fn a_worn_ribbon_cut_across_lets_its_free_end_fall_and_keeps_its_skin() {
         "the cut-off end fell"
     );
 }
+
+#[test]
+fn a_press_next_to_a_cut_picks_the_piece_it_hits() {
+    use bevy_cloth::plugin::interaction::{nearest, nearest_on_surface};
+    let n = 16;
+    let mut app = app();
+    record_tears(&mut app);
+    let cloth = app.world_mut().spawn(banner(n, ClothMaterial::COTTON)).id();
+    run(&mut app, 90);
+    app.world_mut().write_message(ClothCut::along(
+        Some(cloth),
+        Vec3::new(-1.0, 1.52, 0.0),
+        Vec3::new(1.0, 1.52, 0.0),
+        Vec3::Z * 0.5,
+    ));
+    app.update();
+    let split = app.world().resource::<Torn>().0[0].split.clone();
+    let on_crack: Vec<u32> = split.iter().flat_map(|&(o, c)| [o, c]).collect();
+    let world = app.world();
+    let (shape, p) = (
+        world.get::<Cloth>(cloth).unwrap(),
+        world.get::<ClothParticles>(cloth).unwrap(),
+    );
+    let links = world.get::<ClothConnections>(cloth).unwrap();
+    // A point a quarter of the way from a crack particle to a neighbour
+    // off the crack: on that particle's piece.
+    let beside = |q: u32| {
+        let next = links
+            .structural
+            .iter()
+            .find_map(|l| match (l.a == q, l.b == q) {
+                (true, _) if !on_crack.contains(&l.b) => Some(l.b),
+                (_, true) if !on_crack.contains(&l.a) => Some(l.a),
+                _ => None,
+            })
+            .expect("a neighbour off the crack");
+        let x = &p.positions;
+        x[q as usize].lerp(x[next as usize], 0.25)
+    };
+    let mut confused = 0;
+    for &(original, copy) in &split {
+        let (a, b) = (beside(original), beside(copy));
+        assert_eq!(nearest_on_surface(shape, p, a), Some(original));
+        assert_eq!(nearest_on_surface(shape, p, b), Some(copy));
+        // The nearest particle alone cannot tell the two pieces apart:
+        // the original and its copy stand at one place.
+        if nearest(p, a) == nearest(p, b) {
+            confused += 1;
+        }
+    }
+    assert_eq!(confused, split.len());
+}

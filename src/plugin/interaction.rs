@@ -26,8 +26,10 @@ use bevy::prelude::{Commands, Component, Entity, Query, Reflect, ReflectComponen
 use bevy::time::Fixed;
 
 use crate::plugin::components::ClothForces;
-use crate::plugin::components::ClothParticles;
+use crate::plugin::components::{Cloth, ClothParticles};
 use crate::plugin::events::{ClothGrabbed, ClothReleased};
+use crate::sim::collision::trimesh::closest_point_on_triangle;
+use crate::sim::grid::Faces;
 use crate::sim::particles::PinOwner;
 
 /// How a grab moves its particle.
@@ -149,6 +151,42 @@ impl ClothGrabs {
     /// Whether nothing is held.
     pub fn is_empty(&self) -> bool {
         self.grabs.is_empty()
+    }
+}
+
+/// Index of the particle nearest `point` (m) among the corners of the
+/// cloth's triangle nearest it: the particle a pointer hit on the surface
+/// means. Where a tear has left a particle and its copy at one place, this
+/// is the one of the piece that was hit, which [`nearest`] cannot tell.
+/// A cloth with no triangle with finite corners falls back to [`nearest`].
+pub fn nearest_on_surface(cloth: &Cloth, particles: &ClothParticles, point: Vec3) -> Option<u32> {
+    if !point.is_finite() {
+        return None;
+    }
+    let x = &particles.positions;
+    let corners = |t: [u32; 3]| {
+        let c = t.map(|p| x.get(p as usize).copied().unwrap_or(Vec3::NAN));
+        c.iter().all(|p| p.is_finite()).then_some(c)
+    };
+    let hit = cloth
+        .faces()
+        .filter_map(|t| corners(t).map(|c| (t, c)))
+        .map(|(t, c)| {
+            (
+                t,
+                c,
+                closest_point_on_triangle(point, c).distance_squared(point),
+            )
+        })
+        .min_by(|a, b| a.2.total_cmp(&b.2));
+    match hit {
+        Some((t, c, _)) => (0..3)
+            .min_by(|&i, &j| {
+                c[i].distance_squared(point)
+                    .total_cmp(&c[j].distance_squared(point))
+            })
+            .map(|i| t[i]),
+        None => nearest(particles, point),
     }
 }
 

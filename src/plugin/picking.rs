@@ -1,7 +1,8 @@
 //! Pick and pull with the mouse (feature `picking`): press on a cloth to
-//! grab the particle nearest the hit, drag to carry it along the cursor ray
+//! grab the particle nearest the hit (a corner of the triangle hit,
+//! [`nearest_on_surface`]), drag to carry it along the cursor ray
 //! at the grab's depth, release to let go; the secondary button pins or
-//! unpins the nearest particle. Built on [`ClothGrabs`], so game code sees
+//! unpins that particle. Built on [`ClothGrabs`], so game code sees
 //! the player's grabs like its own.
 //!
 //! Needs a picking backend that hits meshes, such as Bevy's
@@ -38,8 +39,8 @@ use bevy::picking::pointer::{PointerButton, PointerId};
 use bevy::platform::collections::HashMap;
 use bevy::prelude::*;
 
-use crate::plugin::components::ClothParticles;
-use crate::plugin::interaction::{ClothGrabs, GrabMode, nearest};
+use crate::plugin::components::{Cloth, ClothParticles};
+use crate::plugin::interaction::{ClothGrabs, GrabMode, nearest_on_surface};
 
 /// How the pointer acts on cloths.
 #[derive(Resource, Clone, Debug, PartialEq, Reflect)]
@@ -183,17 +184,18 @@ fn press(
     event: On<PointerPress>,
     settings: Res<ClothPicking>,
     mut held: ResMut<PointerGrabs>,
-    mut cloths: Query<(&mut ClothParticles, &mut ClothGrabs)>,
+    mut cloths: Query<(&Cloth, &mut ClothParticles, &mut ClothGrabs)>,
 ) {
     let cloth = event.entity;
-    let (Ok((mut particles, mut grabs)), Some(hit)) = (cloths.get_mut(cloth), event.hit.position)
+    let (Ok((shape, mut particles, mut grabs)), Some(hit)) =
+        (cloths.get_mut(cloth), event.hit.position)
     else {
         return;
     };
     if !settings.enabled {
         return;
     }
-    let Some(p) = nearest(&particles, hit) else {
+    let Some(p) = nearest_on_surface(shape, &particles, hit) else {
         return;
     };
     match event.button {
