@@ -380,8 +380,11 @@ fn linearise(
     buffers: &mut ImplicitBuffers,
 ) {
     assemble(dynamics, (x, v, w), alpha, beta, buffers);
+    // No contact is held: none of the last held step's terms may stay,
+    // in the operator or on the right-hand side.
     buffers.op.extra.clear();
     buffers.op.coupling.clear();
+    buffers.contact_rhs.clear();
     build(dynamics, dynamics.inverse_masses, alpha, beta, buffers);
 }
 

@@ -221,6 +221,48 @@ fn friction_holds_inside_its_cone_and_slides_by_coulomb_outside_it() {
     assert_eq!(hold, Hold::Slide);
 }
 
+#[test]
+fn a_step_without_contacts_after_a_slide_keeps_nothing_of_it() {
+    // A particle sliding on the floor (0.08 N against μ m g = 0.049 N),
+    // its history then forgotten (as the guard does to retry a step, or a
+    // teleport) and a step taken with no contact listed: the step must be
+    // what it is from fresh buffers. The last held step's right-hand-side
+    // terms were kept and added to every such step, which threw a cloth
+    // landing in gusts 100 m up.
+    one_particle(Vec3::X * 0.08, |dynamics| {
+        let (mut x, mut v) = ([Vec3::ZERO], [Vec3::ZERO]);
+        let mut buffers = ImplicitBuffers::default();
+        for _ in 0..30 {
+            buffers.contacts.list.clear();
+            buffers
+                .contacts
+                .list
+                .push(touching(0, Vec3::Y, x[0].y, 0.5, NO_BODY));
+            backward_euler(dynamics, &mut x, &mut v, H, &mut buffers);
+        }
+        assert_eq!(buffers.contacts.hold(0), Hold::Slide);
+        x[0].y += 0.1;
+        let (mut x_fresh, mut v_fresh) = (x, v);
+        buffers.reset_history();
+        buffers.contacts.list.clear();
+        backward_euler(dynamics, &mut x, &mut v, H, &mut buffers);
+        let mut fresh = ImplicitBuffers::default();
+        backward_euler(dynamics, &mut x_fresh, &mut v_fresh, H, &mut fresh);
+        assert!(
+            (v[0] - v_fresh[0]).length() < 1e-5,
+            "{} vs {}",
+            v[0],
+            v_fresh[0]
+        );
+        assert!(
+            (x[0] - x_fresh[0]).length() < 1e-6,
+            "{} vs {}",
+            x[0],
+            x_fresh[0]
+        );
+    });
+}
+
 /// One particle falling at 3 m/s from 1 cm onto a surface, in one backward
 /// Euler step: its position, velocity and the contact's impulse (N·s),
 /// with a free body of `body_mass` kg behind the surface (infinite: none).
