@@ -419,21 +419,47 @@ fn a_4000_vertex_disc_in_a_storm_stays_whole_with_the_defaults() {
 }
 
 #[test]
-fn creases_on_a_mesh_cloth_are_ignored_and_nothing_breaks() {
+fn a_crease_on_a_mesh_cloth_folds_it_and_one_that_misses_changes_nothing() {
     let mut app = app();
-    let cloth = ClothBuilder::from_mesh(&disc_mesh(4, 0.5, 0.0))
-        .build()
-        .unwrap();
-    let before = cloth.connections.clone();
-    let e = app.world_mut().spawn(cloth).id();
-    app.world_mut()
-        .entity_mut(e)
-        .insert(ClothCreases(vec![Crease::new(
-            Vec2::new(0.0, 0.0),
-            Vec2::new(0.5, 0.5),
-        )]));
-    app.update();
-    assert_eq!(*app.world().get::<ClothConnections>(e).unwrap(), before);
+    let triangle = triangle_mesh(
+        &[
+            Vec3::ZERO,
+            Vec3::new(0.3, 0.0, 0.0),
+            Vec3::new(0.0, 0.0, 0.3),
+        ],
+        vec![0, 2, 1],
+    );
+    // From the disc's centre out to its rim, in its rest xz plane; beside
+    // it; across a lone triangle, which has no Type 2 link to fold.
+    let across = Crease::new(Vec2::new(0.0, 0.0), Vec2::new(0.5, 0.5));
+    let beside = Crease::new(Vec2::new(2.0, 2.0), Vec2::new(3.0, 3.0));
+    for (mesh, crease, folds) in [
+        (disc_mesh(4, 0.5, 0.0), across, true),
+        (disc_mesh(4, 0.5, 0.0), beside, false),
+        (
+            triangle,
+            Crease::new(Vec2::new(0.1, -0.1), Vec2::new(0.1, 0.4)),
+            false,
+        ),
+    ] {
+        let cloth = ClothBuilder::from_mesh(&mesh).build().unwrap();
+        let before = cloth.connections.clone();
+        let e = app.world_mut().spawn(cloth).id();
+        app.world_mut()
+            .entity_mut(e)
+            .insert(ClothCreases(vec![crease]));
+        app.update();
+        let after = app.world().get::<ClothConnections>(e).unwrap();
+        assert_eq!(after.structural, before.structural);
+        assert_eq!(after.shear, before.shear);
+        if folds {
+            assert!(!after.crease.is_empty());
+            assert_ne!(after.bend, before.bend);
+        } else {
+            assert_eq!(*after, before);
+        }
+        assert!(common::particles(&app, e).is_finite());
+    }
 }
 
 #[test]
