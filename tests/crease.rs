@@ -8,7 +8,7 @@ use std::collections::BTreeSet;
 use bevy::prelude::*;
 use bevy_cloth::prelude::*;
 use bevy_cloth::sim::crease::{Crease, FoldSide, RestSurface, crossing};
-use common::{app, particles};
+use common::{app, paper_app_with, particles};
 
 /// A flat, horizontal 15×15, 1 m sheet (rest `uv` = its `x`, `z` + ½).
 /// A 1 m, 15×15 sheet with the raw constants of the app's settings (the
@@ -127,18 +127,6 @@ fn paper_app() -> App {
             .with_integrator(Integrator::SymplecticEuler, 40)
             .without_adaptive(),
     )
-}
-
-/// [`paper_app`] with another stepping.
-fn paper_app_with(stepping: ClothSettings) -> App {
-    let mut app = app();
-    let mut settings = SimSettings {
-        gravity: Vec3::ZERO,
-        ..stepping.0
-    };
-    settings.choi_ko.bending_rigidity = 1e-4;
-    app.insert_resource(ClothDefaults(settings));
-    app
 }
 
 /// The fold angle (degrees) `crease` gives a paper-like sheet after 300

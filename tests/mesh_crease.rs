@@ -13,7 +13,7 @@ use bevy_cloth::sim::connections::Connections;
 use bevy_cloth::sim::crease::{Crease, CreaseRecord, FoldSide, RestSurface, apply_creases};
 use bevy_cloth::sim::grid::Grid;
 use bevy_cloth::sim::topology::MeshTopology;
-use common::{app, disc_mesh, particles, triangle_mesh};
+use common::{app, disc_mesh, paper_app_with as paper_app, particles, triangle_mesh};
 
 /// The crease links of `connections` as `(a, b) → rest length` (m), and
 /// the fold triples as `(a, c) → (hinge, sign)`.
@@ -253,19 +253,6 @@ fn grid_sheet() -> ClothBundle {
         .position(Vec3::new(0.0, 1.0, 0.0))
         .build()
         .unwrap()
-}
-
-/// An app without gravity whose cloths are paper-like (`k_b` = 1e-4 N·m²),
-/// stepped with `stepping`.
-fn paper_app(stepping: ClothSettings) -> App {
-    let mut app = app();
-    let mut settings = SimSettings {
-        gravity: Vec3::ZERO,
-        ..stepping.0
-    };
-    settings.choi_ko.bending_rigidity = 1e-4;
-    app.insert_resource(ClothDefaults(settings));
-    app
 }
 
 /// The angle (degrees) between the mean normals of the flaps, the

@@ -308,3 +308,17 @@ pub fn wear(app: &mut App, max: f32) -> (Entity, Entity, Entity) {
     let e = app.world_mut().spawn((cloth, skin)).id();
     (root, upper, e)
 }
+
+/// An app without gravity whose cloths are paper-like (`k_b` = 1e-4 N·m²,
+/// stiff enough in bending to keep a crease's flaps flat), stepped with
+/// `stepping`.
+pub fn paper_app_with(stepping: ClothSettings) -> App {
+    let mut app = app();
+    let mut settings = SimSettings {
+        gravity: Vec3::ZERO,
+        ..stepping.0
+    };
+    settings.choi_ko.bending_rigidity = 1e-4;
+    app.insert_resource(ClothDefaults(settings));
+    app
+}
