@@ -397,17 +397,20 @@ pub fn apply_closing<'a>(
             // by β: `sin(β/2)(½(d_a + d_c) − e)` for a hinge `e` m from the
             // plane, `sin(β/2) L/2` for a grid's (on the line; its diagonal
             // connections keep that of the axial ones).
+            // A mesh hinge farther from the plane than its ends are, on
+            // average, has nothing to keep.
             let lift = (beta / 2.0).sin().min(0.5);
-            let min_height = if cloth.grid_size().is_some() {
-                0.25 * original * lift
+            let (min_height, keep) = if cloth.grid_size().is_some() {
+                (0.25 * original * lift, true)
             } else {
                 let off = crossing
                     .across
                     .dot(cloth.position(hinge) - crease.from)
                     .abs();
-                0.5 * lift * (0.5 * (da + dc) - off)
+                let height = 0.5 * lift * (0.5 * (da + dc) - off);
+                (height, height > 0.0)
             };
-            if min_height > 0.0 {
+            if keep {
                 connections.fold.push(FoldTriple {
                     a: l.a,
                     hinge,
