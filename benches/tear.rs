@@ -9,8 +9,8 @@
 //! `App::update` is one 1/60 s frame with the mesh sync. The torn banner is
 //! cut by 3 vertical and 4 horizontal blades into 20 pieces at its first
 //! frame (its top row of 4 still hangs, the rest fall to the floor) and
-//! left 5 s before the timing. The Apps are timed in turns of 20 frames so that all see the
-//! same state of a shared, noisy machine. Printed per size: the median and
+//! left 5 s before the timing. The Apps are timed in turns of 20 frames so
+//! that all see the same state of a shared, noisy machine. Printed per size: the median and
 //! range of the ms per frame of each, and of the frame in which the banner
 //! is cut in 20 pieces (9 fresh banners).
 //!

@@ -326,12 +326,12 @@ pub(crate) fn tear_cloths(
         let mut plan = tear::break_links(x, &broken);
         let (cut, crossed) = tear::cut(&topology, x, &blades);
         plan.extend(cut);
-        let before = topology.clone();
         let outcome = tear::apply(&mut topology, &adjacency, x, &plan);
         if outcome.is_empty() {
             continue;
         }
-        let rule_before = before.connections();
+        // The layout still holds the topology before the tear.
+        let rule_before = layout.topology().connections();
         let origins = outcome.origins(topology.len());
         let links = tear::rebuild(
             &item.connections,

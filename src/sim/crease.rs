@@ -149,6 +149,16 @@ impl Crease {
         cloth: &RestSurface,
         connections: &Connections,
     ) -> Result<(), ClothError> {
+        self.validate_meeting(cloth, || !crossings(cloth, connections, self).is_empty())
+    }
+
+    /// [`validate`](Self::validate), with `meets_mesh` telling whether the
+    /// segment meets a mesh cloth (asked only of a mesh, and last).
+    fn validate_meeting(
+        &self,
+        cloth: &RestSurface,
+        meets_mesh: impl FnOnce() -> bool,
+    ) -> Result<(), ClothError> {
         let finite = self.from.is_finite() && self.to.is_finite() && self.stiffness.is_finite();
         if !finite || self.stiffness < 0.0 {
             return Err(ClothError::InvalidCrease(
@@ -171,7 +181,7 @@ impl Crease {
         }
         let meets = match cloth.grid_size() {
             Some(size) => segment_meets_rect(self.from.xz(), self.to.xz(), size),
-            None => !crossing(cloth, connections, self).is_empty(),
+            None => meets_mesh(),
         };
         if !meets {
             return Err(ClothError::InvalidCrease("the segment misses the cloth"));
@@ -342,10 +352,18 @@ pub fn apply_closing<'a>(
     let mut errors = Vec::new();
     let mut folded = HashSet::new();
     for (crease, fraction) in creases {
-        if let Err(e) = crease.validate(cloth, connections) {
+        // A mesh's crossings tell whether the crease meets it: found once.
+        let mut found = None;
+        let meets = || {
+            !found
+                .insert(crossings(cloth, connections, crease))
+                .is_empty()
+        };
+        if let Err(e) = crease.validate_meeting(cloth, meets) {
             errors.push(e);
             continue;
         }
+        let found = found.unwrap_or_else(|| crossings(cloth, connections, crease));
         let fraction = if fraction.is_nan() {
             1.0
         } else {
@@ -357,7 +375,7 @@ pub fn apply_closing<'a>(
             FoldSide::Mountain => 1.0,
             FoldSide::Valley => -1.0,
         };
-        for crossing in crossings(cloth, connections, crease) {
+        for crossing in found {
             let (family, k) = (crossing.family, crossing.index);
             // A connection an earlier crease of this list folds stays its.
             if !folded.insert((family, k)) {
