@@ -133,6 +133,15 @@ pub enum ClothError {
         /// The value given.
         value: f32,
     },
+    /// Collision between cloths needs a finite, positive thickness (m) and
+    /// a finite, non-negative friction coefficient.
+    #[error("invalid cloth-to-cloth collision: thickness {thickness} m, friction {friction}")]
+    InvalidClothContact {
+        /// The thickness given, m.
+        thickness: f32,
+        /// The friction coefficient given.
+        friction: f32,
+    },
     /// Gravity (m/s²) must be finite.
     #[error("gravity must be finite, got {0}")]
     InvalidGravity(Vec3),

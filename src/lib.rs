@@ -108,7 +108,8 @@ pub use crate::sim::settings::{
 /// Every type a game names: `use bevy_cloth::prelude::*;`.
 pub mod prelude {
     pub use crate::plugin::collision::{
-        ClothCollider, ClothCollision, ClothSelfCollision, ColliderShape, MeshShape,
+        ClothCollider, ClothCollision, ClothSelfCollision, ClothToClothCollision, ColliderShape,
+        ContactLayers, MeshShape,
     };
     pub use crate::plugin::crease::ClothCreases;
     #[cfg(feature = "debug")]

@@ -142,7 +142,7 @@ impl ContactHook for Ball {
     ) {
         let reach = (self.thickness, sub.dt);
         predict_contacts(&self.collider, (x, v, w), reach, false, out);
-        keep_nearest(out, |_| false);
+        keep_nearest(out, |_| 0);
     }
 }
 

@@ -25,8 +25,9 @@ use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
 use bevy::ecs::query::QueryData;
 
 use crate::plugin::collision::{
-    ClothCollision, ClothCollisionStats, ClothContactImpulses, ClothSelfCollision, ColliderScene,
-    ContactLayers, Feedback, SceneContacts, SelfCollisionScratch, SleepWatch, bounds,
+    ClothCollision, ClothCollisionStats, ClothContactImpulses, ClothContacts, ClothObstacles,
+    ClothSelfCollision, ClothToClothScratch, ColliderScene, ContactLayers, Feedback, SceneContacts,
+    SelfCollisionScratch, SleepWatch, bounds,
 };
 use crate::plugin::components::Cloth;
 use crate::plugin::components::{ClothForces, ClothStats};
@@ -155,6 +156,7 @@ pub(crate) struct StepQuery {
         &'static mut SelfCollisionScratch,
     )>,
     tethers: Option<(Ref<'static, ClothTethers>, &'static mut TetherScratch)>,
+    to_cloth: Option<&'static mut ClothToClothScratch>,
 }
 
 impl StepQueryItem<'_, '_> {
@@ -272,6 +274,7 @@ pub(crate) fn step_cloths(
     mut pool: Local<Pool>,
     wind: Option<Res<ClothWind>>,
     mut blew: Local<bool>,
+    obstacles: Res<ClothObstacles>,
 ) {
     let pool = compute_pool(&mut pool);
     let now = ticks.this_run();
@@ -281,7 +284,7 @@ pub(crate) fn step_cloths(
     let blows = wind.is_some_and(|w| w.blows());
     let stopped = std::mem::replace(&mut *blew, blows) && !blows;
     let everything = defaults.is_changed() || stopped;
-    let totals: [AtomicU64; 4] = Default::default();
+    let totals: [AtomicU64; 6] = Default::default();
     let feedback = Mutex::new(Vec::new());
     for_each_cloth(&mut cloths, |mut item| {
         let base = item.settings.as_deref().map_or(&defaults.0, |own| &own.0);
@@ -330,6 +333,18 @@ pub(crate) fn step_cloths(
             settings
         };
         item.scratch.sleep.settings = settings.sleep;
+        // Other cloths it may reach this step: one moving near it wakes it.
+        let fastest = || {
+            let v = &item.particles.velocities;
+            v.iter().map(|v| v.length()).fold(0.0, f32::max)
+        };
+        let reach = |speed: f32| 2.0 * speed * dt + settings.gravity.length() * dt * dt + 0.01;
+        let mut cloth_moving = false;
+        if let Some(to_cloth) = item.to_cloth.as_deref_mut() {
+            let x = &item.particles.positions;
+            let (rest, entity) = (settings.sleep.rest_speed, item.entity);
+            cloth_moving = obstacles.near(entity, x, reach(fastest()), rest, to_cloth);
+        }
         // Sleep: a sleeping cloth stays as it is unless something could
         // move it; a woken one continues from where it slept.
         let asked = item.sleep.wake_requested();
@@ -343,6 +358,7 @@ pub(crate) fn step_cloths(
             if !(asked
                 || everything
                 || item.disturbed()
+                || cloth_moving
                 || item.scratch.sleep.scene_changed(&scene, layers, tolerance))
             {
                 return;
@@ -368,14 +384,7 @@ pub(crate) fn step_cloths(
             .map_or(ClothCollision::default().thickness, |c| c.thickness);
         scratch.near.clear();
         if !scene.colliders.is_empty() && thickness.is_finite() && thickness >= 0.0 {
-            let speed = item
-                .particles
-                .velocities
-                .iter()
-                .map(|v| v.length())
-                .fold(0.0, f32::max);
-            let reach = thickness + 2.0 * speed * dt + settings.gravity.length() * dt * dt + 0.01;
-            let (lo, hi) = bounds(&item.particles.positions, reach);
+            let (lo, hi) = bounds(&item.particles.positions, thickness + reach(fastest()));
             let layers = item.layers.as_deref().copied().unwrap_or_default();
             scratch.near.extend(
                 scene
@@ -398,7 +407,16 @@ pub(crate) fn step_cloths(
                 (&made.0, t.slack)
             });
         let helper = settings.implicit.helper_thread;
-        let contacts = !scratch.near.is_empty() || self_collision.is_some();
+        let cloths = item
+            .to_cloth
+            .as_deref_mut()
+            .filter(|c| !c.near.1.is_empty())
+            .map(|scratch| ClothContacts {
+                obstacles: &obstacles,
+                scratch,
+                contacts: 0,
+            });
+        let contacts = !scratch.near.is_empty() || self_collision.is_some() || cloths.is_some();
         let mut hook = (contacts || tethers.is_some()).then(|| SceneContacts {
             scene: &scene,
             near: &scratch.near,
@@ -412,6 +430,7 @@ pub(crate) fn step_cloths(
             edge_points: &mut scratch.edge_points,
             feedback: &mut scratch.feedback,
             counts: Default::default(),
+            cloths,
         });
         let mut external = &item.forces.0[..];
         if steps > 1 {
@@ -450,6 +469,10 @@ pub(crate) fn step_cloths(
             .with_helper_thread(helper),
         );
         if let Some(hook) = hook {
+            if let Some(c) = &hook.cloths {
+                totals[4].fetch_add(1, Ordering::Relaxed);
+                totals[5].fetch_add(c.contacts as u64, Ordering::Relaxed);
+            }
             let (against, itself) = hook.counts;
             for (total, n) in totals.iter().zip([
                 against.tests,
@@ -489,7 +512,9 @@ pub(crate) fn step_cloths(
     if !scene.colliders.is_empty() {
         stats.collider_passes += 1;
     }
-    let [ct, cc, st, sc] = totals.map(AtomicU64::into_inner);
+    let [ct, cc, st, sc, cp, ck] = totals.map(AtomicU64::into_inner);
+    stats.cloth_passes += cp.min(1);
+    stats.cloth_contacts += ck;
     if ct + st > 0 {
         stats.collider_tests += ct;
         stats.collider_contacts += cc;

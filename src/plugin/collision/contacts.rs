@@ -238,6 +238,8 @@ pub(crate) struct SceneContacts<'a> {
     pub(crate) feedback: &'a mut Feedback,
     /// Tests and contacts so far: against colliders, with itself.
     pub(crate) counts: (Counts, Counts),
+    /// Its contacts with other cloths, when it has some near.
+    pub(crate) cloths: Option<super::ClothContacts<'a>>,
 }
 
 impl ContactHook for SceneContacts<'_> {
@@ -290,6 +292,9 @@ impl ContactHook for SceneContacts<'_> {
         let mut itself = Counts::default();
         if let Some((cloth, thickness, buffers)) = self.self_collision.as_mut() {
             itself = self_collide(*cloth, start, x, v, w, *thickness, buffers);
+        }
+        if let Some(cloths) = self.cloths.as_mut() {
+            cloths.resolve(sub, (start, x, v), all, held);
         }
         if held.len() == x.len() {
             for &c in self.near {
@@ -360,11 +365,15 @@ impl ContactHook for SceneContacts<'_> {
                 contact.source = c as u32;
             }
         }
+        if let Some(cloths) = self.cloths.as_mut() {
+            cloths.predict(sub, (x, v, w), out);
+        }
         let colliders = &self.scene.colliders;
-        predict::keep_nearest(out, |source| {
-            colliders
-                .get(source as usize)
-                .is_some_and(|c| c.body().is_some())
+        // Kinds of surface: fixed, a free body, another cloth.
+        predict::keep_nearest(out, |source| match colliders.get(source as usize) {
+            Some(c) if c.body().is_some() => 1,
+            Some(_) => 0,
+            None => 2,
         });
         // A body that gives way moves within the solve, under all its
         // contacts at once, from where the substeps so far took it. The

@@ -8,6 +8,8 @@
 //!   is seen at once. Its motion over each fixed step enters the response.
 //! - [`ClothCollision`] on a cloth sets its thickness (default 5 mm).
 //! - [`ClothSelfCollision`] opts a cloth into self-collision.
+//! - [`ClothToClothCollision`] opts a cloth into collision with other
+//!   cloths that have it.
 //!
 //! The narrow phase and response are pure functions
 //! ([`sim::collision`](crate::sim::collision)); the systems here only
@@ -30,6 +32,7 @@
 //! Imports: the simulation core and the rest of the plugin (the schedule,
 //! poses, the components).
 
+mod cloths;
 mod contacts;
 mod from_mesh;
 mod scene;
@@ -55,6 +58,8 @@ use crate::sim::collision::contact::seed_triangle_pass;
 pub use crate::sim::collision::{Counts, SelfCollisionBuffers, Shape, TriMesh};
 use crate::sim::particles::Particles;
 
+pub(crate) use cloths::ClothContacts;
+pub use cloths::{ClothObstacles, ClothToClothCollision, ClothToClothScratch};
 pub(crate) use contacts::{Feedback, SceneContacts};
 pub use contacts::{SPLIT_PARTICLES, resolve_substep};
 pub use scene::{
@@ -299,6 +304,11 @@ pub struct ClothCollisionStats {
     pub self_tests: u64,
     /// Self-contacts resolved.
     pub self_contacts: u64,
+    /// Fixed steps in which some cloth had another cloth near it.
+    pub cloth_passes: u64,
+    /// Contacts between cloths held by the solve, and particles put back
+    /// after passing through another cloth.
+    pub cloth_contacts: u64,
 }
 
 /// Adds the collision resources and systems (called by `ClothPlugin`).
@@ -306,6 +316,8 @@ pub(crate) fn configure(app: &mut App, schedule: Interned<dyn ScheduleLabel>) {
     app.init_resource::<ClothCollisionStats>()
         .init_resource::<ColliderScene>()
         .init_resource::<ClothContactImpulses>()
+        .init_resource::<ClothObstacles>()
+        .register_type::<ClothToClothCollision>()
         .register_type::<ClothCollider>()
         .register_type::<ClothCollision>()
         .register_type::<ClothSelfCollision>()
@@ -326,6 +338,10 @@ pub(crate) fn configure(app: &mut App, schedule: Interned<dyn ScheduleLabel>) {
                 seed_pass
                     .in_set(ClothSystems::Collide)
                     .run_if(mesh_in_scene),
+                cloths::take_obstacles
+                    .run_if(cloths::obstacles_in_use)
+                    .in_set(ClothSystems::Integrate)
+                    .before(crate::plugin::systems::step_cloths),
             ),
         );
 }

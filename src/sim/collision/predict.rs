@@ -226,11 +226,13 @@ fn mesh_crossing(mesh: &TriMesh, p0: Vec3, p1: Vec3) -> Option<(Vec3, Vec3)> {
 /// Keeps, for each particle listed more than once, its contact with the
 /// smallest gap, and its edge contact ([`SolveContact::edge`]) with the
 /// smallest gap, and sorts the list by particle. A particle squeezed
-/// between a fixed surface and a free body (`free(source)`, with their
-/// normals facing each other) keeps the nearest contact of each kind: a
-/// plate on a tablecloth on a table rests on the cloth, which rests on the
-/// table, rather than sinking through the cloth.
-pub fn keep_nearest(contacts: &mut Vec<SolveContact>, free: impl Fn(u32) -> bool) {
+/// between surfaces of different kinds (`kind(source)`, below 32: a fixed
+/// surface, a free body, another cloth), with normals facing the nearest
+/// one's, keeps the nearest contact of each kind: a plate on a tablecloth
+/// on a table rests on the cloth, which rests on the table, rather than
+/// sinking through the cloth, and a sheet between a ball and another
+/// sheet lying on it is held by both.
+pub fn keep_nearest(contacts: &mut Vec<SolveContact>, kind: impl Fn(u32) -> u8) {
     contacts.sort_unstable_by(|a, b| {
         (a.particle.cmp(&b.particle))
             .then(a.edge.cmp(&b.edge))
@@ -241,21 +243,18 @@ pub fn keep_nearest(contacts: &mut Vec<SolveContact>, free: impl Fn(u32) -> bool
         let nearest = contacts[i];
         contacts[kept] = nearest;
         kept += 1;
-        let mut other = false;
+        let bit = |source| 1u32 << kind(source).min(31);
+        let mut kinds = bit(nearest.source);
         i += 1;
         while i < contacts.len()
             && contacts[i].particle == nearest.particle
             && contacts[i].edge == nearest.edge
         {
             let c = contacts[i];
-            if !other
-                && !c.edge
-                && free(c.source) != free(nearest.source)
-                && c.normal.dot(nearest.normal) < 0.0
-            {
+            if kinds & bit(c.source) == 0 && !c.edge && c.normal.dot(nearest.normal) < 0.0 {
                 contacts[kept] = c;
                 kept += 1;
-                other = true;
+                kinds |= bit(c.source);
             }
             i += 1;
         }
@@ -334,7 +333,7 @@ mod tests {
             edge: false,
         };
         let mut list = vec![c(3, 0.0), c(1, 0.2), c(3, -0.1), c(1, 0.1)];
-        keep_nearest(&mut list, |_| false);
+        keep_nearest(&mut list, |_| 0);
         let kept: Vec<(u32, f32)> = list.iter().map(|c| (c.particle, c.gap)).collect();
         assert_eq!(kept, [(1, 0.1), (3, -0.1)]);
     }
@@ -433,7 +432,7 @@ mod tests {
             c(5, 0.0, Vec3::Y, 0),
             c(5, 0.001, Vec3::Y, 1),
         ];
-        keep_nearest(&mut list, |source| source == 1);
+        keep_nearest(&mut list, |source| u8::from(source == 1));
         let kept: Vec<(u32, f32, u32)> =
             list.iter().map(|c| (c.particle, c.gap, c.source)).collect();
         assert_eq!(kept, [(2, 0.0, 0), (2, 0.001, 1), (5, 0.0, 0)]);
@@ -461,7 +460,7 @@ mod tests {
             c(4, 0.0, Vec3::Y, false),
             c(4, -0.001, Vec3::new(0.1, 1.0, 0.0), true),
         ];
-        keep_nearest(&mut list, |_| false);
+        keep_nearest(&mut list, |_| 0);
         let kept: Vec<(u32, f32, bool, f32)> = list
             .iter()
             .map(|c| (c.particle, c.gap, c.edge, c.friction))

@@ -1,0 +1,360 @@
+//! Collision between separate cloths ([`ClothToClothCollision`]).
+//!
+//! At the start of [`ClothSystems::Integrate`](crate::ClothSystems::Integrate)
+//! every cloth that has the component is taken as a
+//! [`ClothObstacle`]: its surface at the start of the step, its triangles
+//! hashed over the step. Each cloth's step then holds its particles off the
+//! obstacles near it, inside its own implicit solve
+//! ([`sim::collision::cloths`](crate::sim::collision::cloths) has the
+//! scheme), so cloths keep stepping independently and in parallel. Nothing
+//! runs while no cloth has the component.
+
+use bevy::log::warn_once;
+use bevy::math::Vec3;
+use bevy::prelude::*;
+use bevy::time::Fixed;
+
+use super::ContactLayers;
+use crate::error::ClothError;
+use crate::plugin::components::{Cloth, ClothParticles};
+use crate::plugin::sleep::ClothSleep;
+use crate::sim::collision::cloths::{ClothObstacle, ObstacleBuffers, Pair};
+use crate::sim::grid::Faces;
+
+/// Opts a cloth into collision with the other cloths that have it (grid
+/// and mesh cloths alike): each particle of one is kept `thickness` m off
+/// the other's triangles, both ways, inside each cloth's implicit solve
+/// ([`sim::collision::cloths`](crate::sim::collision::cloths)).
+///
+/// Two cloths meet when their [`groups`](Self::groups) interact; a pair
+/// keeps the larger of its two thicknesses and the mean of its frictions.
+/// A cloth moving near a sleeping one wakes it. Nothing runs while no cloth
+/// has the component.
+///
+/// ```
+/// # use bevy::prelude::*;
+/// # use bevy_cloth::prelude::*;
+/// fn spawn(mut commands: Commands) -> Result<(), ClothError> {
+///     let sheet = ClothToClothCollision::default();
+///     commands.spawn((ClothBuilder::new(24, 24).build()?, sheet.clone()));
+///     commands.spawn((
+///         ClothBuilder::new(24, 24).position(Vec3::new(0.0, 0.3, 0.0)).build()?,
+///         sheet,
+///     ));
+///     // A flag that meets only cloths in group 2.
+///     let flag = ClothToClothCollision {
+///         groups: ContactLayers::new(2, 2),
+///         ..default()
+///     };
+///     commands.spawn((ClothBuilder::new(16, 10).build()?, flag));
+///     Ok(())
+/// }
+/// ```
+#[derive(Component, Clone, Debug, PartialEq, Reflect)]
+#[reflect(Component, Default)]
+#[require(ClothToClothScratch)]
+pub struct ClothToClothCollision {
+    /// Smallest distance kept between this cloth's surface and another's,
+    /// m (> 0).
+    pub thickness: f32,
+    /// Coulomb friction coefficient μ against other cloths (≥ 0,
+    /// dimensionless).
+    pub friction: f32,
+    /// Which cloths it meets: two meet when each one's `memberships` share
+    /// a bit with the other's `filters`.
+    pub groups: ContactLayers,
+    /// Its place in the stack of cloths (dimensionless): of two cloths that
+    /// meet, the one of the higher layer is kept off the other, which moves
+    /// as if the first were not there. Layered clothing: a cape (layer 1)
+    /// over a skirt (layer 0). Of two in one layer, the one spawned later
+    /// (the larger [`Entity`]) is kept off the other.
+    pub layer: i32,
+}
+
+impl Default for ClothToClothCollision {
+    fn default() -> Self {
+        Self {
+            thickness: 0.01,
+            friction: 0.4,
+            groups: ContactLayers::ALL,
+            layer: 0,
+        }
+    }
+}
+
+impl ClothToClothCollision {
+    /// Checks the thickness (finite, > 0 m) and friction (finite, ≥ 0).
+    pub fn validate(&self) -> Result<(), ClothError> {
+        let thick = self.thickness.is_finite() && self.thickness > 0.0;
+        let rough = self.friction.is_finite() && self.friction >= 0.0;
+        if thick && rough {
+            Ok(())
+        } else {
+            Err(ClothError::InvalidClothContact {
+                thickness: self.thickness,
+                friction: self.friction,
+            })
+        }
+    }
+}
+
+/// A colliding cloth's scratch: the obstacles near it in this step and the
+/// contact passes' lists.
+#[derive(Component, Clone, Debug, Default)]
+pub struct ClothToClothScratch {
+    /// Index into [`ClothObstacles`] of the cloth itself, and of each
+    /// obstacle near it with the pair's contact.
+    pub(crate) near: (Option<usize>, Vec<(usize, Pair)>),
+    /// The passes' lists.
+    pub(crate) buffers: ObstacleBuffers,
+    /// The sum of the normals (m) of the colliders each particle touches.
+    pub(crate) support: Vec<Vec3>,
+}
+
+/// One colliding cloth of the step.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct ObstacleEntry {
+    pub(crate) entity: Option<Entity>,
+    pub(crate) contact: Option<ClothToClothCollision>,
+    pub(crate) asleep: bool,
+    pub(crate) obstacle: ClothObstacle,
+    /// Side of the cloth's hash cells, m.
+    pub(crate) cell: f32,
+}
+
+/// Every colliding cloth of the current step, as the others see it.
+#[derive(Resource, Default)]
+pub struct ClothObstacles {
+    pub(crate) entries: Vec<ObstacleEntry>,
+    /// Entries kept for their allocations.
+    spare: Vec<ObstacleEntry>,
+}
+
+impl ClothObstacles {
+    /// How many cloths take part in this step.
+    pub fn len(&self) -> usize {
+        self.entries.len()
+    }
+
+    /// Whether none does.
+    pub fn is_empty(&self) -> bool {
+        self.entries.is_empty()
+    }
+
+    /// Fills `scratch` for the cloth `entity` whose particles (at `x`, m)
+    /// may move `reach` m this step: its own entry and the entries of the
+    /// cloths it meets whose boxes come within it. Returns whether one of
+    /// them is awake and moving faster than `rest_speed` m/s (it wakes a
+    /// sleeping cloth).
+    pub(crate) fn near(
+        &self,
+        entity: Entity,
+        x: &[Vec3],
+        reach: f32,
+        rest_speed: f32,
+        scratch: &mut ClothToClothScratch,
+    ) -> bool {
+        let (own, near) = &mut scratch.near;
+        near.clear();
+        *own = self.entries.iter().position(|e| e.entity == Some(entity));
+        let Some(me) = own.map(|i| &self.entries[i]) else {
+            return false;
+        };
+        let Some(mine) = me.contact.as_ref() else {
+            return false;
+        };
+        let (lo, hi) = super::bounds(x, reach + mine.thickness);
+        let mut moving = false;
+        for (k, other) in self.entries.iter().enumerate() {
+            let Some(theirs) = other.contact.as_ref() else {
+                continue;
+            };
+            let below = (theirs.layer, other.entity) < (mine.layer, Some(entity));
+            if !below
+                || other.entity == Some(entity)
+                || !mine.groups.interacts(theirs.groups)
+                || !other.obstacle.overlaps(lo, hi)
+            {
+                continue;
+            }
+            moving |= !other.asleep && other.obstacle.speed > rest_speed;
+            near.push((
+                k,
+                Pair {
+                    thickness: mine.thickness.max(theirs.thickness),
+                    friction: 0.5 * (mine.friction + theirs.friction),
+                    rank: false,
+                },
+            ));
+        }
+        moving
+    }
+}
+
+/// What the snapshot reads of a colliding cloth.
+type ObstacleQuery = (
+    Entity,
+    &'static Cloth,
+    &'static ClothParticles,
+    &'static ClothToClothCollision,
+    &'static ClothSleep,
+);
+
+/// Whether the snapshot has work: a cloth has the component, or last
+/// step's entries are to be cleared.
+pub(crate) fn obstacles_in_use(
+    cloths: Query<(), With<ClothToClothCollision>>,
+    obstacles: Res<ClothObstacles>,
+) -> bool {
+    !cloths.is_empty() || !obstacles.is_empty()
+}
+
+/// At the start of [`ClothSystems::Integrate`](crate::ClothSystems::Integrate):
+/// every colliding cloth's surface at the start of the step. A cloth with a
+/// non-finite position or velocity, or an invalid component (warned once),
+/// is left out. A sleeping cloth's particles do not give way.
+pub(crate) fn take_obstacles(
+    _main: crate::plugin::schedule::MainThread,
+    time: Res<Time<Fixed>>,
+    cloths: Query<ObstacleQuery>,
+    mut obstacles: ResMut<ClothObstacles>,
+) {
+    let dt = time.timestep().as_secs_f32();
+    let ClothObstacles { entries, spare } = &mut *obstacles;
+    spare.append(entries);
+    let pad = cloths
+        .iter()
+        .map(|c| c.3.thickness)
+        .filter(|t| t.is_finite())
+        .fold(0.0, f32::max);
+    let mut still = Vec::new();
+    for (entity, cloth, particles, contact, sleep) in &cloths {
+        if let Err(error) = contact.validate() {
+            warn_once!("cloth {entity} does not collide with other cloths: {error}");
+            continue;
+        }
+        let mut entry = spare.pop().unwrap_or_default();
+        let asleep = sleep.is_asleep();
+        let w = if asleep {
+            still.clear();
+            still.resize(particles.len(), 0.0);
+            &still[..]
+        } else {
+            &particles.inverse_masses[..]
+        };
+        let p = (&particles.positions[..], &particles.velocities[..], w);
+        let cell = cloth.cell_size();
+        if ClothObstacle::take(cloth.faces(), p, (dt, pad, cell), &mut entry.obstacle).is_none() {
+            spare.push(entry);
+            continue;
+        }
+        entry.entity = Some(entity);
+        entry.contact = Some(contact.clone());
+        entry.asleep = asleep;
+        entry.cell = cell;
+        entries.push(entry);
+    }
+}
+
+/// A cloth's contacts with other cloths during its step, called by the
+/// integrators' contact hook
+/// ([`SceneContacts`](super::SceneContacts)).
+pub(crate) struct ClothContacts<'a> {
+    /// Every colliding cloth of the step.
+    pub(crate) obstacles: &'a ClothObstacles,
+    /// The cloth's own entry and its neighbours ([`ClothToClothScratch`]).
+    pub(crate) scratch: &'a mut ClothToClothScratch,
+    /// Contacts listed and particles put back so far.
+    pub(crate) contacts: u32,
+}
+
+impl ClothContacts<'_> {
+    /// Seconds into the step at the substep's start and end.
+    fn times(sub: crate::sim::step::Substep) -> (f32, f32) {
+        let span = sub.to - sub.from;
+        let step = if span > 0.0 { sub.dt / span } else { 0.0 };
+        (sub.from * step, sub.to * step)
+    }
+
+    /// Adds the contacts that hold the cloth (positions `x` m, velocities
+    /// `v` m/s, inverse masses `w` 1/kg) off its neighbours over `sub`.
+    pub(crate) fn predict(
+        &mut self,
+        sub: crate::sim::step::Substep,
+        (x, v, w): (&[Vec3], &[Vec3], &[f32]),
+        out: &mut Vec<crate::sim::integrate::implicit::SolveContact>,
+    ) {
+        let (Some(own), near) = &self.scratch.near else {
+            return;
+        };
+        let me = &self.obstacles.entries[*own];
+        if me.obstacle.x.len() != x.len() {
+            return;
+        }
+        let (from, _) = Self::times(sub);
+        let before = out.len();
+        // What each particle lies on already (the colliders' contacts).
+        let support = &mut self.scratch.support;
+        support.clear();
+        support.resize(x.len(), Vec3::ZERO);
+        for c in &out[..before] {
+            if let Some(s) = support.get_mut(c.particle as usize) {
+                *s += c.normal;
+            }
+        }
+        for &(k, pair) in near.iter() {
+            crate::sim::collision::cloths::predict_cloth_contacts(
+                &me.obstacle.faces,
+                (x, v, w),
+                (from, sub.dt),
+                me.cell,
+                &self.obstacles.entries[k].obstacle,
+                pair,
+                &mut self.scratch.buffers,
+                out,
+            );
+        }
+        // A particle lying on a collider is not pressed into it by another
+        // cloth: that cloth rests on this one instead (its own particles
+        // are held off this one's triangles in its step).
+        let support = &self.scratch.support;
+        let mut k = before;
+        for i in before..out.len() {
+            let c = out[i];
+            if c.normal.dot(support[c.particle as usize]) >= 0.0 {
+                out[k] = c;
+                k += 1;
+            }
+        }
+        out.truncate(k);
+        self.contacts += (out.len() - before) as u32;
+    }
+
+    /// After a substep: puts back the particles that passed through a
+    /// neighbour (`start` → `x`, m; `v`, m/s; `w`, 1/kg; `held` by the
+    /// solve, or empty).
+    pub(crate) fn resolve(
+        &mut self,
+        sub: crate::sim::step::Substep,
+        (start, x, v): (&[Vec3], &mut [Vec3], &mut [Vec3]),
+        w: &[f32],
+        held: &[crate::sim::integrate::implicit::Hold],
+    ) {
+        let (Some(_), near) = &self.scratch.near else {
+            return;
+        };
+        for &(k, pair) in near.iter() {
+            self.contacts += crate::sim::collision::cloths::undo_crossings(
+                start,
+                x,
+                v,
+                w,
+                held,
+                Self::times(sub),
+                &self.obstacles.entries[k].obstacle,
+                pair,
+                &mut self.scratch.buffers,
+            );
+        }
+    }
+}

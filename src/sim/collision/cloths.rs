@@ -1,0 +1,533 @@
+//! Collision between separate cloths, held inside each cloth's own step.
+//!
+//! A cloth that collides with others sees each cloth it yields to as a
+//! [`ClothObstacle`]: that cloth's triangles at the start of the fixed
+//! step, moving on at their velocities, as a moving collider. Each cloth's
+//! step moves only its own particles, so cloths still step independently
+//! (and in parallel); of a pair, one is kept off the other, which moves as
+//! if the first were not there (the plugin orders pairs by layer):
+//!
+//! - **Particle against triangle.** A free particle within reach of the
+//!   other cloth's triangle (the thickness, m, plus both motions over the
+//!   step) is held by the implicit solve off that triangle, at the
+//!   thickness, with the triangle's velocity as the surface's, like a
+//!   particle on a collider ([`predict`](super::predict)).
+//! - **Triangle against particle.** The corners of a triangle within reach
+//!   of the other cloth's particle are held off it the same way, so a
+//!   corner of the other cloth poking into the middle of this one's
+//!   triangle pushes the triangle away.
+//! - **Sides.** A particle is held on the side of the triangle it is on at
+//!   the start of the step; one lying on the triangle's plane exactly (two
+//!   cloths spawned on top of each other) goes to the side the pair's
+//!   [`rank`](Pair::rank) gives, along the triangle's normal turned towards
+//!   its largest component.
+//! - **Crossings.** After each substep, a particle that passed through a
+//!   triangle of the other cloth (moving at its velocity over the substep)
+//!   is put back on its side at the thickness and takes the triangle's
+//!   normal velocity ([`undo_crossings`]); a step without the implicit
+//!   solve also pushes particles within the thickness out there.
+//!
+//! A spatial hash over each obstacle's triangles, swept over the step,
+//! finds the candidates.
+
+use bevy::math::Vec3;
+
+use super::trimesh::closest_point_on_triangle;
+use crate::sim::integrate::implicit::{Hold, NO_BODY, SolveContact};
+
+/// [`SolveContact::source`] of a contact with another cloth: not a scene
+/// collider.
+pub const CLOTH_SOURCE: u32 = u32::MAX - 1;
+
+/// How far outside the thickness (m) a particle still counts as touching.
+const TOUCH: f32 = 1e-4;
+
+/// Most hash cells a side a triangle's sweep is entered in.
+const MAX_SPAN: i32 = 4;
+
+/// A corner of a triangle takes a contact at a point of the triangle when
+/// its barycentric weight there is at least this (dimensionless), or it
+/// is the heaviest corner.
+const CORNER_SHARE: f32 = 0.25;
+
+/// Another cloth as one cloth's step sees it: its surface at the start of
+/// the fixed step, moving on at its velocities.
+#[derive(Clone, Debug, Default)]
+pub struct ClothObstacle {
+    /// Its triangles, as indices into its particles.
+    pub faces: Vec<[u32; 3]>,
+    /// Positions at the start of the fixed step, m.
+    pub x: Vec<Vec3>,
+    /// Velocities, m/s.
+    pub v: Vec<Vec3>,
+    /// Inverse masses, 1/kg (0: pinned, does not give way).
+    pub w: Vec<f32>,
+    /// The fixed step, s.
+    pub dt: f32,
+    /// Smallest corner and largest corner of its box over the step, grown
+    /// by [`pad`](Self::pad), m.
+    pub lo: Vec3,
+    /// See [`lo`](Self::lo).
+    pub hi: Vec3,
+    /// How far (m) its box and hash cells are grown around its triangles.
+    pub pad: f32,
+    /// Its fastest particle, m/s.
+    pub speed: f32,
+    /// Side of the hash cells, m.
+    cell: f32,
+    /// `(cell key, triangle)`, sorted by key.
+    entries: Vec<(u64, u32)>,
+}
+
+/// A colliding pair as one of its cloths sees it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Pair {
+    /// Smallest distance kept between the two surfaces, m (> 0).
+    pub thickness: f32,
+    /// Coulomb friction coefficient μ (≥ 0, dimensionless).
+    pub friction: f32,
+    /// Whether this cloth goes below the other where the two lie on one
+    /// plane (above when `false`).
+    pub rank: bool,
+}
+
+fn cell_of(p: Vec3, inv_cell: f32) -> [i32; 3] {
+    let c = (p * inv_cell).floor();
+    [c.x as i32, c.y as i32, c.z as i32]
+}
+
+fn key([x, y, z]: [i32; 3]) -> u64 {
+    (x as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15)
+        ^ (y as u64).wrapping_mul(0xC2B2_AE3D_27D4_EB4F)
+        ^ (z as u64).wrapping_mul(0x1656_67B1_9E37_79F9)
+}
+
+/// Every cell key of the box `lo..hi` (m), at most [`MAX_SPAN`] a side.
+fn cells(lo: Vec3, hi: Vec3, inv_cell: f32, mut each: impl FnMut(u64)) {
+    let (lo, hi) = (cell_of(lo, inv_cell), cell_of(hi, inv_cell));
+    let last = |a: usize| hi[a].min(lo[a].saturating_add(MAX_SPAN - 1));
+    for i in lo[0]..=last(0) {
+        for j in lo[1]..=last(1) {
+            for k in lo[2]..=last(2) {
+                each(key([i, j, k]));
+            }
+        }
+    }
+}
+
+/// Barycentric weights of point `c` on triangle `[a, b, d]`.
+pub(crate) fn barycentric(c: Vec3, [a, b, d]: [Vec3; 3]) -> [f32; 3] {
+    let (v0, v1, v2) = (b - a, d - a, c - a);
+    let (d00, d01, d11) = (v0.dot(v0), v0.dot(v1), v1.dot(v1));
+    let (d20, d21) = (v2.dot(v0), v2.dot(v1));
+    let denom = d00 * d11 - d01 * d01;
+    if denom.abs() < 1e-20 {
+        return [1.0 / 3.0; 3];
+    }
+    let v = (d11 * d20 - d01 * d21) / denom;
+    let w = (d00 * d21 - d01 * d20) / denom;
+    [1.0 - v - w, v, w]
+}
+
+/// The box (m) of `points`, if every one is finite.
+pub fn finite_box(points: &[Vec3]) -> Option<(Vec3, Vec3)> {
+    let (lo, hi) = points.iter().fold((Vec3::MAX, Vec3::MIN), |(lo, hi), &p| {
+        (lo.min(p), hi.max(p))
+    });
+    (lo.is_finite() && hi.is_finite()).then_some((lo, hi))
+}
+
+impl ClothObstacle {
+    /// Takes a cloth's surface at the start of a fixed step of `dt` s:
+    /// `faces`, positions `x` (m), velocities `v` (m/s) and inverse masses
+    /// `w` (1/kg); its triangles are hashed over the step grown by `pad` m
+    /// (the largest thickness it meets), in cells of about `cell` m (its
+    /// longest rest edge). Returns `None` for a cloth with a non-finite
+    /// position or velocity (it is left out of collision).
+    pub fn take(
+        faces: impl Iterator<Item = [u32; 3]>,
+        (x, v, w): (&[Vec3], &[Vec3], &[f32]),
+        (dt, pad, cell): (f32, f32, f32),
+        reuse: &mut Self,
+    ) -> Option<()> {
+        let n = x.len();
+        if v.len() != n || w.len() != n || !(dt.is_finite() && dt > 0.0) {
+            return None;
+        }
+        let (lo0, hi0) = finite_box(x)?;
+        let speed = v.iter().map(|v| v.length()).fold(0.0, f32::max);
+        if !speed.is_finite() {
+            return None;
+        }
+        let this = reuse;
+        this.faces.clear();
+        this.faces
+            .extend(faces.filter(|t| t.iter().all(|&q| (q as usize) < n)));
+        this.x.clear();
+        this.x.extend_from_slice(x);
+        this.v.clear();
+        this.v.extend_from_slice(v);
+        this.w.clear();
+        this.w.extend_from_slice(w);
+        this.dt = dt;
+        this.pad = pad;
+        this.speed = speed;
+        let travel = Vec3::splat(speed * dt + pad);
+        (this.lo, this.hi) = (lo0 - travel, hi0 + travel);
+        this.cell = cell.max(2.0 * pad).max(1e-4);
+        let inv_cell = 1.0 / this.cell;
+        this.entries.clear();
+        for (t, tri) in this.faces.iter().enumerate() {
+            let (mut lo, mut hi) = (Vec3::MAX, Vec3::MIN);
+            for &q in tri {
+                let (s, e) = (x[q as usize], x[q as usize] + v[q as usize] * dt);
+                lo = lo.min(s).min(e);
+                hi = hi.max(s).max(e);
+            }
+            let entries = &mut this.entries;
+            cells(lo - pad, hi + pad, inv_cell, |k| {
+                entries.push((k, t as u32))
+            });
+        }
+        this.entries.sort_unstable();
+        Some(())
+    }
+
+    /// Whether its box over the step meets the box `lo..hi` (m).
+    pub fn overlaps(&self, lo: Vec3, hi: Vec3) -> bool {
+        self.lo.cmple(hi).all() && lo.cmple(self.hi).all()
+    }
+
+    /// The triangles hashed in the cells of the box `lo..hi` (m), each
+    /// once, into `out`.
+    fn gather(&self, lo: Vec3, hi: Vec3, out: &mut Vec<u32>) {
+        out.clear();
+        cells(lo, hi, 1.0 / self.cell, |k| {
+            let from = self.entries.partition_point(|e| e.0 < k);
+            out.extend(
+                self.entries[from..]
+                    .iter()
+                    .take_while(|e| e.0 == k)
+                    .map(|e| e.1),
+            );
+        });
+        out.sort_unstable();
+        out.dedup();
+    }
+
+    /// Its particle `q`'s position at time `t` s into the fixed step, m.
+    fn at(&self, q: u32, t: f32) -> Vec3 {
+        self.x[q as usize] + self.v[q as usize] * t
+    }
+
+    /// Triangle `t`'s corners at time `s` s into the fixed step, m.
+    fn corners(&self, t: u32, s: f32) -> [Vec3; 3] {
+        self.faces[t as usize].map(|q| self.at(q, s))
+    }
+}
+
+/// Reusable lists of the contact passes (no allocation once warm).
+#[derive(Clone, Debug, Default)]
+pub struct ObstacleBuffers {
+    candidates: Vec<u32>,
+    /// Own triangles hashed: `(cell key, triangle)` sorted.
+    own: Vec<(u64, u32)>,
+}
+
+/// The unit normal of `[a, b, c]` (zero for a degenerate one).
+fn face_normal([a, b, c]: [Vec3; 3]) -> Vec3 {
+    (b - a).cross(c - a).normalize_or_zero()
+}
+
+/// The direction, from a triangle of normal `face` towards a point whose
+/// signed distance along it is `signed` m, that the point is held on; a
+/// point on the plane goes below it for a pair's `rank`, above otherwise
+/// (along `face` turned towards its largest component).
+fn side_of(face: Vec3, signed: f32, below: bool) -> Vec3 {
+    if signed.abs() > 1e-6 {
+        return face * signed.signum();
+    }
+    let a = face.abs();
+    let largest = if a.x >= a.y && a.x >= a.z {
+        face.x
+    } else if a.y >= a.z {
+        face.y
+    } else {
+        face.z
+    };
+    let up = face * largest.signum();
+    if below { -up } else { up }
+}
+
+/// Where point `p` is held off triangle `corners` (thickness `h` m): the
+/// unit normal from the triangle towards `p`, the gap (m, distance less
+/// `h`) and the barycentric weights of the nearest point. `below` is the
+/// side a point on the plane goes to, as [`side_of`].
+fn point_off_triangle(
+    p: Vec3,
+    corners: [Vec3; 3],
+    h: f32,
+    below: bool,
+) -> Option<(Vec3, f32, [f32; 3])> {
+    let face = face_normal(corners);
+    if face == Vec3::ZERO {
+        return None;
+    }
+    let c = closest_point_on_triangle(p, corners);
+    let bary = barycentric(c, corners);
+    let off = p - c;
+    let d = off.length();
+    let inside = bary.iter().all(|&b| b > 1e-4);
+    let normal = if inside || d < 1e-7 {
+        side_of(face, off.dot(face), below)
+    } else {
+        off / d
+    };
+    Some((normal, d - h, bary))
+}
+
+/// Adds to `out` the contacts that hold this cloth (`faces` for its
+/// triangles, positions `x` m, velocities `v` m/s, inverse masses `w`
+/// 1/kg, at `time` s into the fixed step) off `other` over a substep of
+/// `dt` s: its free particles against `other`'s triangles, and its
+/// triangles' corners against `other`'s particles ([module docs](self)).
+/// Several contacts may name one particle; the solve's
+/// [`keep_nearest`](super::predict::keep_nearest) keeps the nearest.
+#[expect(
+    clippy::too_many_arguments,
+    reason = "a plain function over the cloth's slices"
+)]
+pub fn predict_cloth_contacts(
+    faces: &[[u32; 3]],
+    (x, v, w): (&[Vec3], &[Vec3], &[f32]),
+    (time, dt): (f32, f32),
+    cell: f32,
+    other: &ClothObstacle,
+    pair: Pair,
+    buffers: &mut ObstacleBuffers,
+    out: &mut Vec<SolveContact>,
+) {
+    let h = pair.thickness;
+    if !(h.is_finite() && h > 0.0 && dt > 0.0) {
+        return;
+    }
+    let contact = |particle: usize, normal: Vec3, gap: f32, velocity: Vec3| SolveContact {
+        particle: particle as u32,
+        normal,
+        gap,
+        velocity,
+        friction: pair.friction,
+        source: CLOTH_SOURCE,
+        body: NO_BODY,
+        edge: false,
+    };
+    let speed = other.speed;
+    // This cloth's particles against the other's triangles.
+    for p in 0..x.len() {
+        let (xp, vp, wp) = (x[p], v[p], w[p]);
+        if wp == 0.0 || !(xp.is_finite() && vp.is_finite()) {
+            continue;
+        }
+        let reach = h + TOUCH + (vp.length() + speed) * dt;
+        if !other.overlaps(xp - reach, xp + reach) {
+            continue;
+        }
+        other.gather(xp - reach, xp + reach, &mut buffers.candidates);
+        let mut best: Option<SolveContact> = None;
+        for &t in &buffers.candidates {
+            let corners = other.corners(t, time);
+            let Some((n, gap, bary)) = point_off_triangle(xp, corners, h, pair.rank) else {
+                continue;
+            };
+            let tri = other.faces[t as usize];
+            let vs: Vec3 = (0..3).map(|i| bary[i] * other.v[tri[i] as usize]).sum();
+            if gap > reach - h || (gap > TOUCH && gap + dt * (vp - vs).dot(n) >= 0.0) {
+                continue;
+            }
+            if best.is_some_and(|b| b.gap <= gap) {
+                continue;
+            }
+            best = Some(contact(p, n, gap, vs));
+        }
+        out.extend(best);
+    }
+    // This cloth's triangles against the other's particles.
+    hash_own(faces, x, v, (dt, h + TOUCH, cell), &mut buffers.own);
+    let inv_cell = 1.0 / cell.max(2.0 * h).max(1e-4);
+    for q in 0..other.x.len() {
+        let (xq, vq) = (other.at(q as u32, time), other.v[q]);
+        let reach = h + TOUCH + vq.length() * dt;
+        gather_own(
+            &buffers.own,
+            (xq - reach, xq + reach),
+            inv_cell,
+            &mut buffers.candidates,
+        );
+        for &t in &buffers.candidates {
+            let tri = faces[t as usize];
+            let corners = tri.map(|i| x[i as usize]);
+            // The other cloth's particle is held off this triangle as a
+            // particle of the other side: the opposite rank.
+            let Some((n, gap, bary)) = point_off_triangle(xq, corners, h, !pair.rank) else {
+                continue;
+            };
+            let vs: Vec3 = (0..3).map(|i| bary[i] * v[tri[i] as usize]).sum();
+            let ws: f32 = (0..3).map(|i| bary[i] * bary[i] * w[tri[i] as usize]).sum();
+            if ws == 0.0 || gap > TOUCH + (vq.length() + vs.length()) * dt {
+                continue;
+            }
+            if gap > TOUCH && gap + dt * (vq - vs).dot(n) >= 0.0 {
+                continue;
+            }
+            // The triangle is pushed along −n, away from the particle
+            // moving at its own velocity.
+            let heaviest = (0..3).fold(0, |m, i| if bary[i] > bary[m] { i } else { m });
+            for i in 0..3 {
+                let corner = tri[i] as usize;
+                if w[corner] == 0.0 || (bary[i] < CORNER_SHARE && i != heaviest) {
+                    continue;
+                }
+                let corner_gap = (xq - x[corner]).dot(n) - h;
+                out.push(contact(corner, -n, corner_gap, vq));
+            }
+        }
+    }
+}
+
+/// Hashes this cloth's triangles (positions `x` m moving at `v` m/s over
+/// `dt` s, grown by `pad` m) in cells of `cell` m into `entries`.
+fn hash_own(
+    faces: &[[u32; 3]],
+    x: &[Vec3],
+    v: &[Vec3],
+    (dt, pad, cell): (f32, f32, f32),
+    entries: &mut Vec<(u64, u32)>,
+) {
+    entries.clear();
+    let inv_cell = 1.0 / cell.max(2.0 * pad).max(1e-4);
+    for (t, tri) in faces.iter().enumerate() {
+        let (mut lo, mut hi) = (Vec3::MAX, Vec3::MIN);
+        for &q in tri {
+            let (s, e) = (x[q as usize], x[q as usize] + v[q as usize] * dt);
+            lo = lo.min(s).min(e);
+            hi = hi.max(s).max(e);
+        }
+        if lo.is_finite() && hi.is_finite() {
+            cells(lo - pad, hi + pad, inv_cell, |k| {
+                entries.push((k, t as u32))
+            });
+        }
+    }
+    entries.sort_unstable();
+}
+
+/// The triangles of `entries` in the cells of the box `lo..hi` (m), each
+/// once.
+fn gather_own(entries: &[(u64, u32)], (lo, hi): (Vec3, Vec3), inv_cell: f32, out: &mut Vec<u32>) {
+    out.clear();
+    if !(lo.is_finite() && hi.is_finite()) {
+        return;
+    }
+    cells(lo, hi, inv_cell, |k| {
+        let from = entries.partition_point(|e| e.0 < k);
+        out.extend(entries[from..].iter().take_while(|e| e.0 == k).map(|e| e.1));
+    });
+    out.sort_unstable();
+    out.dedup();
+}
+
+/// After a substep from `from` to `to` s into the fixed step: puts each
+/// free particle of this cloth (`start` → `x`, m; velocities `v`, m/s;
+/// inverse masses `w`, 1/kg) that passed through a triangle of `other`
+/// back on the side it started on, at the thickness, with the triangle's
+/// normal velocity. The triangle is taken from where it was at `from`,
+/// moving as the pair would meet (the particle at its path's velocity, the
+/// triangle's point at its own, as the solve holds them): a particle the
+/// solve held on a triangle that gave way with it has not passed through.
+/// When `held` is empty (no implicit solve held this substep's contacts)
+/// or says a particle was free, one within the thickness of a triangle is
+/// also pushed out to it and loses its approaching normal velocity. Only
+/// this cloth's particles move. Returns how many were moved.
+#[expect(
+    clippy::too_many_arguments,
+    reason = "a plain function over the cloth's slices"
+)]
+pub fn undo_crossings(
+    start: &[Vec3],
+    x: &mut [Vec3],
+    v: &mut [Vec3],
+    w: &[f32],
+    held: &[Hold],
+    (from, to): (f32, f32),
+    other: &ClothObstacle,
+    pair: Pair,
+    buffers: &mut ObstacleBuffers,
+) -> u32 {
+    let h = pair.thickness;
+    let span = to - from;
+    if !(h.is_finite() && h > 0.0 && span > 0.0) {
+        return 0;
+    }
+    let mut moved = 0;
+    for p in 0..x.len() {
+        let (s, e) = (start[p], x[p]);
+        if w[p] == 0.0 || !(s.is_finite() && e.is_finite()) {
+            continue;
+        }
+        let (lo, hi) = (s.min(e) - h, s.max(e) + h);
+        if !other.overlaps(lo, hi) {
+            continue;
+        }
+        other.gather(lo, hi, &mut buffers.candidates);
+        let free = held.get(p).is_none_or(|&k| k == Hold::Free);
+        let mut push: Option<(Vec3, f32, Vec3)> = None;
+        for &t in &buffers.candidates {
+            let before = other.corners(t, from);
+            let face = face_normal(before);
+            if face == Vec3::ZERO {
+                continue;
+            }
+            let was = (s - before[0]).dot(face);
+            let tri = other.faces[t as usize];
+            let bary = barycentric(closest_point_on_triangle(s, before), before);
+            let vs: Vec3 = (0..3).map(|i| bary[i] * other.v[tri[i] as usize]).sum();
+            let n = side_of(face, was, pair.rank);
+            let now = before.map(|c| c + vs * span);
+            let is = (e - now[0]).dot(face);
+            if was * is < 0.0 && was.abs() > 1e-6 {
+                // Crossed the plane: through the inside?
+                let f = was / (was - is);
+                let at = s.lerp(e, f);
+                let then = before.map(|c| c + vs * span * f);
+                if barycentric(at, then).iter().all(|&b| b >= -1e-4) {
+                    let c = closest_point_on_triangle(e, now);
+                    let depth = h - (e - c).dot(n);
+                    if push.is_none_or(|(_, d, _)| depth > d) {
+                        push = Some((n, depth, vs));
+                    }
+                }
+                continue;
+            }
+            if !free {
+                continue;
+            }
+            let Some((n, gap, _)) = point_off_triangle(e, now, h, pair.rank) else {
+                continue;
+            };
+            if gap < 0.0 && push.is_none_or(|(_, d, _)| -gap > d) {
+                push = Some((n, -gap, vs));
+            }
+        }
+        if let Some((n, depth, vs)) = push
+            && depth > 0.0
+        {
+            x[p] += n * depth;
+            let un = (v[p] - vs).dot(n);
+            if un < 0.0 {
+                v[p] -= un * n;
+            }
+            moved += 1;
+        }
+    }
+    moved
+}
