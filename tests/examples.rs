@@ -12,7 +12,7 @@ use bevy::ecs::schedule::ScheduleLabel;
 use bevy::prelude::*;
 use bevy_cloth::prelude::*;
 
-const WINDOWED: [&str; 11] = [
+const WINDOWED: [&str; 12] = [
     "hanging",
     "tablecloth",
     "sphere",
@@ -21,6 +21,7 @@ const WINDOWED: [&str; 11] = [
     "round_tablecloth",
     "flag",
     "cape",
+    "two_sheets",
     "hammock",
     "tablecloth_trick",
     "tear",

@@ -214,6 +214,10 @@ impl Plugin for ClothPlugin {
                     crease::update_creases
                         .run_if(any_with_component::<crease::ClothCreases>)
                         .in_set(Crease),
+                    collision::take_obstacles
+                        .run_if(collision::obstacles_in_use)
+                        .in_set(Integrate)
+                        .before(systems::step_cloths),
                     systems::step_cloths.in_set(Integrate),
                     (
                         anchor::snap_anchors.run_if(any_with_component::<ClothAnchors>),

@@ -415,6 +415,7 @@ pub(crate) fn step_cloths(
                 obstacles: &obstacles,
                 scratch,
                 contacts: 0,
+                gravity: settings.gravity,
             });
         let contacts = !scratch.near.is_empty() || self_collision.is_some() || cloths.is_some();
         let mut hook = (contacts || tethers.is_some()).then(|| SceneContacts {

@@ -20,6 +20,7 @@ use crate::plugin::components::{Cloth, ClothParticles};
 use crate::plugin::sleep::ClothSleep;
 use crate::sim::collision::cloths::{ClothObstacle, ObstacleBuffers, Pair};
 use crate::sim::grid::Faces;
+use crate::sim::integrate::implicit::SolveContact;
 
 /// Opts a cloth into collision with the other cloths that have it (grid
 /// and mesh cloths alike): each particle of one is kept `thickness` m off
@@ -66,8 +67,8 @@ pub struct ClothToClothCollision {
     /// Its place in the stack of cloths (dimensionless): of two cloths that
     /// meet, the one of the higher layer is kept off the other, which moves
     /// as if the first were not there. Layered clothing: a cape (layer 1)
-    /// over a skirt (layer 0). Of two in one layer, the one spawned later
-    /// (the larger [`Entity`]) is kept off the other.
+    /// over a skirt (layer 0). Of two in one layer, the one with the larger
+    /// [`Entity`] is kept off the other.
     pub layer: i32,
 }
 
@@ -109,7 +110,14 @@ pub struct ClothToClothScratch {
     pub(crate) buffers: ObstacleBuffers,
     /// The sum of the normals (m) of the colliders each particle touches.
     pub(crate) support: Vec<Vec3>,
+    /// The contacts with other cloths of the last prediction, and the
+    /// friction coefficient of each.
+    pub(crate) held: Vec<(SolveContact, f32)>,
 }
+
+/// How much farther (m) than its particles' speeds and gravity carry it a
+/// cloth looks for other cloths near it.
+const NEIGHBOUR_MARGIN: f32 = 0.1;
 
 /// One colliding cloth of the step.
 #[derive(Clone, Debug, Default)]
@@ -163,7 +171,10 @@ impl ClothObstacles {
         let Some(mine) = me.contact.as_ref() else {
             return false;
         };
-        let (lo, hi) = super::bounds(x, reach + mine.thickness);
+        // Grown by a margin for what forces the step does not know of yet
+        // may carry it (a gust on a light flag): a particle that ends the
+        // step within the thickness of a neighbour is pushed out then.
+        let (lo, hi) = super::bounds(x, reach + mine.thickness + NEIGHBOUR_MARGIN);
         let mut moving = false;
         for (k, other) in self.entries.iter().enumerate() {
             let Some(theirs) = other.contact.as_ref() else {
@@ -266,6 +277,8 @@ pub(crate) struct ClothContacts<'a> {
     pub(crate) scratch: &'a mut ClothToClothScratch,
     /// Contacts listed and particles put back so far.
     pub(crate) contacts: u32,
+    /// Gravity, m/s².
+    pub(crate) gravity: Vec3,
 }
 
 impl ClothContacts<'_> {
@@ -293,6 +306,7 @@ impl ClothContacts<'_> {
         }
         let (from, _) = Self::times(sub);
         let before = out.len();
+        self.scratch.held.clear();
         // What each particle lies on already (the colliders' contacts).
         let support = &mut self.scratch.support;
         support.clear();
@@ -303,6 +317,7 @@ impl ClothContacts<'_> {
             }
         }
         for &(k, pair) in near.iter() {
+            let from_here = out.len();
             crate::sim::collision::cloths::predict_cloth_contacts(
                 &me.obstacle.faces,
                 (x, v, w),
@@ -313,7 +328,17 @@ impl ClothContacts<'_> {
                 &mut self.scratch.buffers,
                 out,
             );
+            let held = &mut self.scratch.held;
+            held.extend(out[from_here..].iter().map(|&c| (c, pair.friction)));
         }
+        // One contact a particle for its friction: the nearest.
+        let held = &mut self.scratch.held;
+        held.sort_unstable_by(|a, b| {
+            (a.0.particle, a.0.gap)
+                .partial_cmp(&(b.0.particle, b.0.gap))
+                .unwrap_or(std::cmp::Ordering::Equal)
+        });
+        held.dedup_by_key(|c| c.0.particle);
         // A particle lying on a collider is not pressed into it by another
         // cloth: that cloth rests on this one instead (its own particles
         // are held off this one's triangles in its step).
@@ -343,6 +368,10 @@ impl ClothContacts<'_> {
         let (Some(_), near) = &self.scratch.near else {
             return;
         };
+        for &(contact, friction) in &self.scratch.held {
+            let friction = (friction, self.gravity, sub.dt);
+            crate::sim::collision::cloths::rub(&[contact], v, held, friction);
+        }
         for &(k, pair) in near.iter() {
             self.contacts += crate::sim::collision::cloths::undo_crossings(
                 start,

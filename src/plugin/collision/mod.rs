@@ -58,7 +58,7 @@ use crate::sim::collision::contact::seed_triangle_pass;
 pub use crate::sim::collision::{Counts, SelfCollisionBuffers, Shape, TriMesh};
 use crate::sim::particles::Particles;
 
-pub(crate) use cloths::ClothContacts;
+pub(crate) use cloths::{ClothContacts, obstacles_in_use, take_obstacles};
 pub use cloths::{ClothObstacles, ClothToClothCollision, ClothToClothScratch};
 pub(crate) use contacts::{Feedback, SceneContacts};
 pub use contacts::{SPLIT_PARTICLES, resolve_substep};
@@ -338,10 +338,6 @@ pub(crate) fn configure(app: &mut App, schedule: Interned<dyn ScheduleLabel>) {
                 seed_pass
                     .in_set(ClothSystems::Collide)
                     .run_if(mesh_in_scene),
-                cloths::take_obstacles
-                    .run_if(cloths::obstacles_in_use)
-                    .in_set(ClothSystems::Integrate)
-                    .before(crate::plugin::systems::step_cloths),
             ),
         );
 }

@@ -42,6 +42,11 @@ pub const CLOTH_SOURCE: u32 = u32::MAX - 1;
 /// How far outside the thickness (m) a particle still counts as touching.
 const TOUCH: f32 = 1e-4;
 
+/// How far (m) beyond the thickness an obstacle's triangles are hashed: a
+/// point moving less than this in a step finds the triangles near it in
+/// its own cell.
+const SLACK: f32 = 0.005;
+
 /// Most hash cells a side a triangle's sweep is entered in.
 const MAX_SPAN: i32 = 4;
 
@@ -170,6 +175,7 @@ impl ClothObstacle {
         this.w.clear();
         this.w.extend_from_slice(w);
         this.dt = dt;
+        let pad = pad + SLACK;
         this.pad = pad;
         this.speed = speed;
         let travel = Vec3::splat(speed * dt + pad);
@@ -196,6 +202,18 @@ impl ClothObstacle {
     /// Whether its box over the step meets the box `lo..hi` (m).
     pub fn overlaps(&self, lo: Vec3, hi: Vec3) -> bool {
         self.lo.cmple(hi).all() && lo.cmple(self.hi).all()
+    }
+
+    /// The triangles that may come within `h` m (at most the thickness
+    /// it was taken for) of a point moving `motion` m from `p` (m) over the
+    /// step, each once, into `out`: the triangles of `p`'s cell when the
+    /// motion is within [`SLACK`], else those of the cells of its box.
+    fn gather_around(&self, p: Vec3, (motion, h): (f32, f32), out: &mut Vec<u32>) {
+        if motion > SLACK || h + SLACK > self.pad {
+            let reach = Vec3::splat(motion + h);
+            return self.gather(p - reach, p + reach, out);
+        }
+        single_cell(&self.entries, key(cell_of(p, 1.0 / self.cell)), out);
     }
 
     /// The triangles hashed in the cells of the box `lo..hi` (m), each
@@ -259,6 +277,14 @@ fn side_of(face: Vec3, signed: f32, below: bool) -> Vec3 {
     if below { -up } else { up }
 }
 
+/// Whether point `p` lies within `reach` m of the box of `corners` (m): a
+/// cheap test before the exact distance.
+fn near_box(p: Vec3, corners: [Vec3; 3], reach: f32) -> bool {
+    let lo = corners[0].min(corners[1]).min(corners[2]) - reach;
+    let hi = corners[0].max(corners[1]).max(corners[2]) + reach;
+    p.cmpge(lo).all() && p.cmple(hi).all()
+}
+
 /// Where point `p` is held off triangle `corners` (thickness `h` m): the
 /// unit normal from the triangle towards `p`, the gap (m, distance less
 /// `h`) and the barycentric weights of the nearest point. `below` is the
@@ -316,7 +342,10 @@ pub fn predict_cloth_contacts(
         normal,
         gap,
         velocity,
-        friction: pair.friction,
+        // Friction between cloths acts after the solve
+        // ([`rub`]): held in it, against a surface whose particles
+        // the contact does not carry, it shook the resting sheets.
+        friction: 0.0,
         source: CLOTH_SOURCE,
         body: NO_BODY,
         edge: false,
@@ -332,10 +361,14 @@ pub fn predict_cloth_contacts(
         if !other.overlaps(xp - reach, xp + reach) {
             continue;
         }
-        other.gather(xp - reach, xp + reach, &mut buffers.candidates);
+        let motion = reach - h;
+        other.gather_around(xp, (motion, h), &mut buffers.candidates);
         let mut best: Option<SolveContact> = None;
         for &t in &buffers.candidates {
             let corners = other.corners(t, time);
+            if !near_box(xp, corners, reach) {
+                continue;
+            }
             let Some((n, gap, bary)) = point_off_triangle(xp, corners, h, pair.rank) else {
                 continue;
             };
@@ -352,22 +385,28 @@ pub fn predict_cloth_contacts(
         out.extend(best);
     }
     // This cloth's triangles against the other's particles.
-    hash_own(faces, x, v, (dt, h + TOUCH, cell), &mut buffers.own);
-    let inv_cell = 1.0 / cell.max(2.0 * h).max(1e-4);
+    let pad = h + TOUCH + SLACK;
+    let inv_cell = 1.0 / cell.max(2.0 * pad).max(1e-4);
+    hash_own(faces, x, v, (dt, pad, inv_cell), &mut buffers.own);
+    let own_travel = v.iter().map(|v| v.length()).fold(0.0, f32::max) * dt;
     for q in 0..other.x.len() {
         let (xq, vq) = (other.at(q as u32, time), other.v[q]);
-        let reach = h + TOUCH + vq.length() * dt;
-        gather_own(
-            &buffers.own,
-            (xq - reach, xq + reach),
-            inv_cell,
-            &mut buffers.candidates,
-        );
+        let motion = vq.length() * dt;
+        let (own, candidates) = (&buffers.own, &mut buffers.candidates);
+        if motion <= SLACK {
+            single_cell(own, key(cell_of(xq, inv_cell)), candidates);
+        } else {
+            let reach = Vec3::splat(h + TOUCH + motion);
+            gather_own(own, (xq - reach, xq + reach), inv_cell, candidates);
+        }
         for &t in &buffers.candidates {
             let tri = faces[t as usize];
             let corners = tri.map(|i| x[i as usize]);
             // The other cloth's particle is held off this triangle as a
             // particle of the other side: the opposite rank.
+            if !near_box(xq, corners, h + TOUCH + motion + own_travel) {
+                continue;
+            }
             let Some((n, gap, bary)) = point_off_triangle(xq, corners, h, !pair.rank) else {
                 continue;
             };
@@ -394,17 +433,50 @@ pub fn predict_cloth_contacts(
     }
 }
 
+/// Coulomb friction after a substep of `dt` s between the particles of
+/// this cloth the solve held on another cloth (`held`; `contacts` as
+/// [`predict_cloth_contacts`] listed them, normals m, surface velocities
+/// m/s) and that cloth: each one's sliding velocity relative to the surface
+/// (`v`, m/s) loses up to `friction` times the normal velocity gravity
+/// (`gravity`, m/s²) presses it with over the substep (the sheet's own
+/// weight as its load). Returns how many were slowed.
+pub fn rub(
+    contacts: &[SolveContact],
+    v: &mut [Vec3],
+    held: &[Hold],
+    (friction, gravity, dt): (f32, Vec3, f32),
+) -> u32 {
+    let mut slowed = 0;
+    for c in contacts {
+        let p = c.particle as usize;
+        if held.get(p).is_none_or(|&h| h == Hold::Free) || p >= v.len() {
+            continue;
+        }
+        let load = -gravity.dot(c.normal) * dt;
+        if !(load > 0.0) {
+            continue;
+        }
+        let relative = v[p] - c.velocity;
+        let slide = relative - relative.dot(c.normal) * c.normal;
+        let speed = slide.length();
+        if speed > 0.0 {
+            v[p] -= slide * (friction * load / speed).min(1.0);
+            slowed += 1;
+        }
+    }
+    slowed
+}
+
 /// Hashes this cloth's triangles (positions `x` m moving at `v` m/s over
-/// `dt` s, grown by `pad` m) in cells of `cell` m into `entries`.
+/// `dt` s, grown by `pad` m) in cells of `1 / inv_cell` m into `entries`.
 fn hash_own(
     faces: &[[u32; 3]],
     x: &[Vec3],
     v: &[Vec3],
-    (dt, pad, cell): (f32, f32, f32),
+    (dt, pad, inv_cell): (f32, f32, f32),
     entries: &mut Vec<(u64, u32)>,
 ) {
     entries.clear();
-    let inv_cell = 1.0 / cell.max(2.0 * pad).max(1e-4);
     for (t, tri) in faces.iter().enumerate() {
         let (mut lo, mut hi) = (Vec3::MAX, Vec3::MIN);
         for &q in tri {
@@ -419,6 +491,13 @@ fn hash_own(
         }
     }
     entries.sort_unstable();
+}
+
+/// The triangles of `entries` in cell `k`, into `out`.
+fn single_cell(entries: &[(u64, u32)], k: u64, out: &mut Vec<u32>) {
+    out.clear();
+    let from = entries.partition_point(|e| e.0 < k);
+    out.extend(entries[from..].iter().take_while(|e| e.0 == k).map(|e| e.1));
 }
 
 /// The triangles of `entries` in the cells of the box `lo..hi` (m), each
@@ -478,7 +557,7 @@ pub fn undo_crossings(
         if !other.overlaps(lo, hi) {
             continue;
         }
-        other.gather(lo, hi, &mut buffers.candidates);
+        other.gather_around(e, (s.distance(e), h), &mut buffers.candidates);
         let free = held.get(p).is_none_or(|&k| k == Hold::Free);
         let mut push: Option<(Vec3, f32, Vec3)> = None;
         for &t in &buffers.candidates {
