@@ -23,24 +23,31 @@ use crate::sim::grid::Faces;
 use crate::sim::integrate::implicit::SolveContact;
 
 /// Opts a cloth into collision with the other cloths that have it (grid
-/// and mesh cloths alike): each particle of one is kept `thickness` m off
-/// the other's triangles, both ways, inside each cloth's implicit solve
-/// ([`sim::collision::cloths`](crate::sim::collision::cloths)).
+/// and mesh cloths alike). Of two cloths that meet, the one of the higher
+/// [`layer`](Self::layer) is kept `thickness` m off the other's surface
+/// inside its own step (its particles off the other's triangles, its
+/// triangles off the other's particles), and the other moves as if it were
+/// not there ([`sim::collision::cloths`](crate::sim::collision::cloths)).
 ///
 /// Two cloths meet when their [`groups`](Self::groups) interact; a pair
 /// keeps the larger of its two thicknesses and the mean of its frictions.
-/// A cloth moving near a sleeping one wakes it. Nothing runs while no cloth
-/// has the component.
+/// A sleeping cloth wakes when a cloth it is kept off moves near it.
+/// Nothing runs while no cloth has the component.
 ///
 /// ```
 /// # use bevy::prelude::*;
 /// # use bevy_cloth::prelude::*;
 /// fn spawn(mut commands: Commands) -> Result<(), ClothError> {
-///     let sheet = ClothToClothCollision::default();
-///     commands.spawn((ClothBuilder::new(24, 24).build()?, sheet.clone()));
+///     let below = ClothToClothCollision::default();
+///     commands.spawn((ClothBuilder::new(24, 24).build()?, below));
+///     // Falls onto the first and rests on it.
+///     let above = ClothToClothCollision {
+///         layer: 1,
+///         ..default()
+///     };
 ///     commands.spawn((
 ///         ClothBuilder::new(24, 24).position(Vec3::new(0.0, 0.3, 0.0)).build()?,
-///         sheet,
+///         above,
 ///     ));
 ///     // A flag that meets only cloths in group 2.
 ///     let flag = ClothToClothCollision {
@@ -110,8 +117,8 @@ pub struct ClothToClothScratch {
     pub(crate) buffers: ObstacleBuffers,
     /// The sum of the normals (m) of the colliders each particle touches.
     pub(crate) support: Vec<Vec3>,
-    /// The contacts with other cloths of the last prediction, and the
-    /// friction coefficient of each.
+    /// The contacts with other cloths of the last prediction, one a
+    /// particle (the nearest), and the friction coefficient of each.
     pub(crate) held: Vec<(SolveContact, f32)>,
 }
 
@@ -328,6 +335,19 @@ impl ClothContacts<'_> {
                 &mut self.scratch.buffers,
                 out,
             );
+            // A particle lying on a collider is not pressed into it by
+            // another cloth: that cloth rests on this one instead (its own
+            // particles are held off this one's triangles in its step).
+            let support = &self.scratch.support;
+            let mut kept = from_here;
+            for i in from_here..out.len() {
+                let c = out[i];
+                if c.normal.dot(support[c.particle as usize]) >= 0.0 {
+                    out[kept] = c;
+                    kept += 1;
+                }
+            }
+            out.truncate(kept);
             let held = &mut self.scratch.held;
             held.extend(out[from_here..].iter().map(|&c| (c, pair.friction)));
         }
@@ -339,19 +359,6 @@ impl ClothContacts<'_> {
                 .unwrap_or(std::cmp::Ordering::Equal)
         });
         held.dedup_by_key(|c| c.0.particle);
-        // A particle lying on a collider is not pressed into it by another
-        // cloth: that cloth rests on this one instead (its own particles
-        // are held off this one's triangles in its step).
-        let support = &self.scratch.support;
-        let mut k = before;
-        for i in before..out.len() {
-            let c = out[i];
-            if c.normal.dot(support[c.particle as usize]) >= 0.0 {
-                out[k] = c;
-                k += 1;
-            }
-        }
-        out.truncate(k);
         self.contacts += (out.len() - before) as u32;
     }
 
@@ -368,10 +375,8 @@ impl ClothContacts<'_> {
         let (Some(_), near) = &self.scratch.near else {
             return;
         };
-        for &(contact, friction) in &self.scratch.held {
-            let friction = (friction, self.gravity, sub.dt);
-            crate::sim::collision::cloths::rub(&[contact], v, held, friction);
-        }
+        let held_on = &self.scratch.held;
+        crate::sim::collision::cloths::rub(held_on, v, held, (self.gravity, sub.dt));
         for &(k, pair) in near.iter() {
             self.contacts += crate::sim::collision::cloths::undo_crossings(
                 start,

@@ -435,25 +435,25 @@ pub fn predict_cloth_contacts(
 
 /// Coulomb friction after a substep of `dt` s between the particles of
 /// this cloth the solve held on another cloth (`held`; `contacts` as
-/// [`predict_cloth_contacts`] listed them, normals m, surface velocities
-/// m/s) and that cloth: each one's sliding velocity relative to the surface
-/// (`v`, m/s) loses up to `friction` times the normal velocity gravity
-/// (`gravity`, m/s²) presses it with over the substep (the sheet's own
-/// weight as its load). Returns how many were slowed.
+/// [`predict_cloth_contacts`] listed them, with their pair's friction
+/// coefficient) and that cloth: each one's sliding velocity relative to
+/// the surface (`v`, m/s) loses up to the coefficient times the normal
+/// velocity gravity (`gravity`, m/s²) presses it with over the substep
+/// (the sheet's own weight as its load). Returns how many were slowed.
 pub fn rub(
-    contacts: &[SolveContact],
+    contacts: &[(SolveContact, f32)],
     v: &mut [Vec3],
     held: &[Hold],
-    (friction, gravity, dt): (f32, Vec3, f32),
+    (gravity, dt): (Vec3, f32),
 ) -> u32 {
     let mut slowed = 0;
-    for c in contacts {
+    for &(ref c, friction) in contacts {
         let p = c.particle as usize;
         if held.get(p).is_none_or(|&h| h == Hold::Free) || p >= v.len() {
             continue;
         }
         let load = -gravity.dot(c.normal) * dt;
-        if !(load > 0.0) {
+        if load.is_nan() || load <= 0.0 {
             continue;
         }
         let relative = v[p] - c.velocity;
@@ -610,3 +610,6 @@ pub fn undo_crossings(
     }
     moved
 }
+
+#[cfg(test)]
+mod tests;

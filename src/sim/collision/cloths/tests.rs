@@ -1,0 +1,259 @@
+use bevy::math::Vec3;
+
+use super::*;
+
+/// A flat 1 m square of two triangles at height `y` m, at rest, its
+/// particles of 1 kg each, taken for a 1/60 s step.
+fn floor_sheet(y: f32) -> ClothObstacle {
+    let x = [
+        Vec3::new(-0.5, y, -0.5),
+        Vec3::new(0.5, y, -0.5),
+        Vec3::new(0.5, y, 0.5),
+        Vec3::new(-0.5, y, 0.5),
+    ];
+    let faces = [[0, 1, 2], [0, 2, 3]];
+    let mut obstacle = ClothObstacle::default();
+    ClothObstacle::take(
+        faces.into_iter(),
+        (&x, &[Vec3::ZERO; 4], &[1.0; 4]),
+        (1.0 / 60.0, 0.01, 1.0),
+        &mut obstacle,
+    )
+    .unwrap();
+    obstacle
+}
+
+const PAIR: Pair = Pair {
+    thickness: 0.01,
+    friction: 0.4,
+    rank: false,
+};
+
+/// The contacts of particles at `x` moving at `v` (inverse masses `w`)
+/// with `other`, this cloth having no triangles.
+fn contacts(x: &[Vec3], v: &[Vec3], w: &[f32], other: &ClothObstacle) -> Vec<SolveContact> {
+    let mut out = Vec::new();
+    let mut buffers = ObstacleBuffers::default();
+    let dt = 1.0 / 60.0;
+    predict_cloth_contacts(
+        &[],
+        (x, v, w),
+        (0.0, dt),
+        0.1,
+        other,
+        PAIR,
+        &mut buffers,
+        &mut out,
+    );
+    out
+}
+
+#[test]
+fn a_particle_falling_onto_another_cloth_is_held_at_the_thickness_off_it() {
+    let sheet = floor_sheet(0.0);
+    let x = [
+        Vec3::new(0.1, 0.015, 0.2),
+        Vec3::new(0.1, 0.5, 0.2),
+        Vec3::new(-0.2, 0.005, 0.1),
+    ];
+    let v = [
+        Vec3::new(0.0, -1.0, 0.0),
+        Vec3::new(0.0, -1.0, 0.0),
+        Vec3::ZERO,
+    ];
+    // The second is far; the third is pinned.
+    let got = contacts(&x, &v, &[1.0, 1.0, 0.0], &sheet);
+    assert_eq!(got.len(), 1, "{got:?}");
+    let c = got[0];
+    assert_eq!(c.particle, 0);
+    assert!((c.normal - Vec3::Y).length() < 1e-6, "{c:?}");
+    assert!((c.gap - 0.005).abs() < 1e-6, "{c:?}");
+    assert_eq!(
+        (c.velocity, c.friction, c.source),
+        (Vec3::ZERO, 0.0, CLOTH_SOURCE)
+    );
+    // Rising away from it, 5 mm clear: nothing to hold.
+    assert!(contacts(&x[..1], &[Vec3::Y], &[1.0], &sheet).is_empty());
+}
+
+#[test]
+fn a_particle_on_the_other_cloth_s_plane_goes_to_its_rank_s_side() {
+    let sheet = floor_sheet(0.0);
+    let x = [Vec3::new(0.1, 0.0, 0.2)];
+    let got = contacts(&x, &[Vec3::ZERO], &[1.0], &sheet);
+    assert_eq!(got.len(), 1);
+    assert!((got[0].normal - Vec3::Y).length() < 1e-6, "{got:?}");
+    assert!((got[0].gap + 0.01).abs() < 1e-6);
+    // The other rank goes below.
+    let mut out = Vec::new();
+    let below = Pair { rank: true, ..PAIR };
+    let mut buffers = ObstacleBuffers::default();
+    let (v, w) = ([Vec3::ZERO], [1.0]);
+    predict_cloth_contacts(
+        &[],
+        (&x, &v, &w),
+        (0.0, 1.0 / 60.0),
+        0.1,
+        &sheet,
+        below,
+        &mut buffers,
+        &mut out,
+    );
+    assert!((out[0].normal + Vec3::Y).length() < 1e-6, "{out:?}");
+}
+
+#[test]
+fn a_particle_of_the_other_cloth_over_a_triangle_pushes_its_corners_away() {
+    // The other cloth: one particle 4 mm over the centroid of this
+    // cloth's triangle, coming down at 1 m/s.
+    let mut point = ClothObstacle::default();
+    ClothObstacle::take(
+        std::iter::empty(),
+        (
+            &[Vec3::new(0.0, 0.004, -0.4 / 3.0)],
+            &[Vec3::new(0.0, -1.0, 0.0)],
+            &[1.0],
+        ),
+        (1.0 / 60.0, 0.01, 1.0),
+        &mut point,
+    )
+    .unwrap();
+    let x = [
+        Vec3::new(-0.5, 0.0, -0.5),
+        Vec3::new(0.5, 0.0, -0.5),
+        Vec3::new(0.0, 0.0, 0.6),
+    ];
+    let (v, w) = ([Vec3::ZERO; 3], [1.0; 3]);
+    let mut out = Vec::new();
+    let mut buffers = ObstacleBuffers::default();
+    let faces = [[0, 1, 2]];
+    predict_cloth_contacts(
+        &faces,
+        (&x, &v, &w),
+        (0.0, 1.0 / 60.0),
+        1.0,
+        &point,
+        PAIR,
+        &mut buffers,
+        &mut out,
+    );
+    assert_eq!(out.len(), 3, "every corner carries a third: {out:?}");
+    for c in &out {
+        assert!((c.normal + Vec3::Y).length() < 1e-5, "{c:?}");
+        assert!((c.gap + 0.006).abs() < 1e-5, "{c:?}");
+        assert_eq!(c.velocity, Vec3::new(0.0, -1.0, 0.0));
+    }
+}
+
+#[test]
+fn a_particle_that_passed_through_the_other_cloth_is_put_back_on_its_side() {
+    let sheet = floor_sheet(0.0);
+    let start = [Vec3::new(0.1, 0.02, 0.2)];
+    let mut x = [Vec3::new(0.1, -0.03, 0.2)];
+    let mut v = [Vec3::new(0.5, -3.0, 0.0)];
+    let mut buffers = ObstacleBuffers::default();
+    let moved = undo_crossings(
+        &start,
+        &mut x,
+        &mut v,
+        &[1.0],
+        &[],
+        (0.0, 1.0 / 60.0),
+        &sheet,
+        PAIR,
+        &mut buffers,
+    );
+    assert_eq!(moved, 1);
+    assert!((x[0].y - 0.01).abs() < 1e-6, "{}", x[0]);
+    assert_eq!(
+        v[0],
+        Vec3::new(0.5, 0.0, 0.0),
+        "its approach is taken out, its slide kept"
+    );
+    // One that stayed clear is left alone; a pinned one too.
+    let mut clear = [Vec3::new(0.1, 0.03, 0.2)];
+    let moved = undo_crossings(
+        &start,
+        &mut clear,
+        &mut v,
+        &[1.0],
+        &[],
+        (0.0, 1.0 / 60.0),
+        &sheet,
+        PAIR,
+        &mut buffers,
+    );
+    assert_eq!((moved, clear[0].y), (0, 0.03));
+    let mut pinned = [Vec3::new(0.1, -0.03, 0.2)];
+    let moved = undo_crossings(
+        &start,
+        &mut pinned,
+        &mut v,
+        &[0.0],
+        &[],
+        (0.0, 1.0 / 60.0),
+        &sheet,
+        PAIR,
+        &mut buffers,
+    );
+    assert_eq!((moved, pinned[0].y), (0, -0.03));
+}
+
+#[test]
+fn friction_slows_a_held_sliding_particle_by_its_load_and_never_turns_it() {
+    let gravity = Vec3::new(0.0, -9.81, 0.0);
+    let dt = 1.0 / 60.0;
+    let held_on = |velocity| {
+        (
+            SolveContact {
+                particle: 0,
+                normal: Vec3::Y,
+                gap: 0.0,
+                velocity,
+                friction: 0.0,
+                source: CLOTH_SOURCE,
+                body: NO_BODY,
+                edge: false,
+            },
+            0.5,
+        )
+    };
+    // Sliding at 1 m/s over a cloth at rest: loses μ g dt.
+    let mut v = [Vec3::new(1.0, 0.0, 0.0)];
+    assert_eq!(
+        rub(
+            &[held_on(Vec3::ZERO)],
+            &mut v,
+            &[Hold::Slide],
+            (gravity, dt)
+        ),
+        1
+    );
+    assert!((v[0].x - (1.0 - 0.5 * 9.81 * dt)).abs() < 1e-6, "{}", v[0]);
+    // Slower than that: stops relative to the cloth (moving at 0.2 m/s),
+    // not past it.
+    let mut v = [Vec3::new(0.25, 0.0, 0.0)];
+    rub(
+        &[held_on(Vec3::new(0.2, 0.0, 0.0))],
+        &mut v,
+        &[Hold::Stick],
+        (gravity, dt),
+    );
+    assert!((v[0].x - 0.2).abs() < 1e-6, "{}", v[0]);
+    // Not held, or under the cloth (gravity pulling it off): untouched.
+    let mut v = [Vec3::new(1.0, 0.0, 0.0)];
+    assert_eq!(
+        rub(&[held_on(Vec3::ZERO)], &mut v, &[Hold::Free], (gravity, dt)),
+        0
+    );
+    assert_eq!(
+        rub(
+            &[held_on(Vec3::ZERO)],
+            &mut v,
+            &[Hold::Slide],
+            (-gravity, dt)
+        ),
+        0
+    );
+    assert_eq!(v[0].x, 1.0);
+}
