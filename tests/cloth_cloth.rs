@@ -40,6 +40,21 @@ fn flat(n: u32, size: f32, at: Vec3) -> ClothBundle {
         .unwrap()
 }
 
+/// Spawns `cloth`, colliding with other cloths in `layer`.
+fn spawn_in(app: &mut App, cloth: ClothBundle, layer: i32) -> Entity {
+    let contact = ClothToClothCollision { layer, ..default() };
+    app.world_mut().spawn((cloth, contact)).id()
+}
+
+/// The height of the lowest particle of `e`, m.
+fn lowest(app: &App, e: Entity) -> f32 {
+    particles(app, e)
+        .positions
+        .iter()
+        .map(|p| p.y)
+        .fold(f32::MAX, f32::min)
+}
+
 /// The floor at y = 0.
 fn floor(app: &mut App) {
     app.world_mut()
@@ -291,16 +306,7 @@ fn a_sheet_dropped_on_a_sleeping_sheet_rests_on_it_and_leaves_it_asleep() {
         }
     }
     assert!(slept, "the lower sheet never fell asleep");
-    let above = app
-        .world_mut()
-        .spawn((
-            flat(10, 0.6, Vec3::new(0.0, 0.4, 0.0)),
-            ClothToClothCollision {
-                layer: 1,
-                ..default()
-            },
-        ))
-        .id();
+    let above = spawn_in(&mut app, flat(10, 0.6, Vec3::new(0.0, 0.4, 0.0)), 1);
     for _ in 0..240 {
         app.update();
         // The lower layer does not feel the upper one: it sleeps on.
@@ -309,11 +315,7 @@ fn a_sheet_dropped_on_a_sleeping_sheet_rests_on_it_and_leaves_it_asleep() {
     let apart = closest(&app, above, below);
     println!("on a sleeping sheet: {apart} m apart");
     assert!(apart >= 0.35 * contact.thickness, "{apart} m apart");
-    let lowest = particles(&app, above)
-        .positions
-        .iter()
-        .map(|p| p.y)
-        .fold(f32::MAX, f32::min);
+    let lowest = lowest(&app, above);
     assert!(
         lowest > 0.006,
         "the upper sheet is under the lower at {lowest} m"
@@ -444,13 +446,7 @@ fn a_sheet_dropped_over_a_ball_onto_a_draped_sheet_stays_outside_it() {
 fn a_mesh_disc_dropped_on_a_grid_sheet_rests_on_it_and_a_sheet_rests_on_the_disc() {
     let mut app = common::app_with_meshes();
     floor(&mut app);
-    let sheet = app
-        .world_mut()
-        .spawn((
-            flat(16, 1.0, Vec3::new(0.0, 0.006, 0.0)),
-            ClothToClothCollision::default(),
-        ))
-        .id();
+    let sheet = spawn_in(&mut app, flat(16, 1.0, Vec3::new(0.0, 0.006, 0.0)), 0);
     // An irregular mesh disc (r 0.35 m) in layer 1, and a small grid sheet
     // over it in layer 2.
     let disc = ClothBuilder::from_mesh(&common::disc_mesh(8, 0.35, 0.4))
@@ -467,16 +463,7 @@ fn a_mesh_disc_dropped_on_a_grid_sheet_rests_on_it_and_a_sheet_rests_on_the_disc
             },
         ))
         .id();
-    let top = app
-        .world_mut()
-        .spawn((
-            flat(9, 0.4, Vec3::new(0.0, 0.45, 0.0)),
-            ClothToClothCollision {
-                layer: 2,
-                ..default()
-            },
-        ))
-        .id();
+    let top = spawn_in(&mut app, flat(9, 0.4, Vec3::new(0.0, 0.45, 0.0)), 2);
     let mut least = [f32::MAX; 2];
     for step in 0..240 {
         app.update();
@@ -502,23 +489,8 @@ fn with_an_explicit_integrator_a_sheet_still_rests_on_a_sheet() {
         SimSettings::default().with_integrator(Integrator::SymplecticEuler, 40),
     ));
     floor(&mut app);
-    let below = app
-        .world_mut()
-        .spawn((
-            flat(12, 0.8, Vec3::new(0.0, 0.006, 0.0)),
-            ClothToClothCollision::default(),
-        ))
-        .id();
-    let above = app
-        .world_mut()
-        .spawn((
-            flat(10, 0.6, Vec3::new(0.03, 0.2, 0.0)),
-            ClothToClothCollision {
-                layer: 1,
-                ..default()
-            },
-        ))
-        .id();
+    let below = spawn_in(&mut app, flat(12, 0.8, Vec3::new(0.0, 0.006, 0.0)), 0);
+    let above = spawn_in(&mut app, flat(10, 0.6, Vec3::new(0.03, 0.2, 0.0)), 1);
     let mut least = f32::MAX;
     for step in 0..180 {
         app.update();
@@ -528,11 +500,7 @@ fn with_an_explicit_integrator_a_sheet_still_rests_on_a_sheet() {
     }
     println!("explicit: closest {least} m");
     assert!(least >= 0.005, "{least} m apart");
-    let lowest = particles(&app, above)
-        .positions
-        .iter()
-        .map(|p| p.y)
-        .fold(f32::MAX, f32::min);
+    let lowest = lowest(&app, above);
     assert!(lowest > 0.006, "the upper sheet went under, to {lowest} m");
 }
 
@@ -540,23 +508,8 @@ fn with_an_explicit_integrator_a_sheet_still_rests_on_a_sheet() {
 fn a_sheet_flicked_at_50_m_s_and_a_ball_swept_through_a_stack_leave_it_whole() {
     let mut app = app();
     floor(&mut app);
-    let below = app
-        .world_mut()
-        .spawn((
-            flat(16, 1.0, Vec3::new(0.0, 0.006, 0.0)),
-            ClothToClothCollision::default(),
-        ))
-        .id();
-    let above = app
-        .world_mut()
-        .spawn((
-            flat(12, 0.7, Vec3::new(0.0, 0.05, 0.0)),
-            ClothToClothCollision {
-                layer: 1,
-                ..default()
-            },
-        ))
-        .id();
+    let below = spawn_in(&mut app, flat(16, 1.0, Vec3::new(0.0, 0.006, 0.0)), 0);
+    let above = spawn_in(&mut app, flat(12, 0.7, Vec3::new(0.0, 0.05, 0.0)), 1);
     for _ in 0..60 {
         app.update();
     }
@@ -586,11 +539,7 @@ fn a_sheet_flicked_at_50_m_s_and_a_ball_swept_through_a_stack_leave_it_whole() {
     for _ in 0..120 {
         app.update();
     }
-    let lowest = particles(&app, above)
-        .positions
-        .iter()
-        .map(|p| p.y)
-        .fold(f32::MAX, f32::min);
+    let lowest = lowest(&app, above);
     let strain = [above, below].map(|e| app.world().get::<ClothStats>(e).unwrap().max_strain);
     println!("flicked and swept: lowest {lowest} m, strain {strain:?}");
     assert!(lowest >= 0.0, "{lowest}");

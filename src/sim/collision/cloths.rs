@@ -32,6 +32,7 @@
 
 use bevy::math::Vec3;
 
+use super::self_collision::{barycentric, cell_of, key};
 use super::trimesh::closest_point_on_triangle;
 use crate::sim::integrate::implicit::{Hold, NO_BODY, SolveContact};
 
@@ -96,17 +97,6 @@ pub struct Pair {
     pub rank: bool,
 }
 
-fn cell_of(p: Vec3, inv_cell: f32) -> [i32; 3] {
-    let c = (p * inv_cell).floor();
-    [c.x as i32, c.y as i32, c.z as i32]
-}
-
-fn key([x, y, z]: [i32; 3]) -> u64 {
-    (x as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15)
-        ^ (y as u64).wrapping_mul(0xC2B2_AE3D_27D4_EB4F)
-        ^ (z as u64).wrapping_mul(0x1656_67B1_9E37_79F9)
-}
-
 /// Every cell key of the box `lo..hi` (m), at most [`MAX_SPAN`] a side.
 fn cells(lo: Vec3, hi: Vec3, inv_cell: f32, mut each: impl FnMut(u64)) {
     let (lo, hi) = (cell_of(lo, inv_cell), cell_of(hi, inv_cell));
@@ -118,20 +108,6 @@ fn cells(lo: Vec3, hi: Vec3, inv_cell: f32, mut each: impl FnMut(u64)) {
             }
         }
     }
-}
-
-/// Barycentric weights of point `c` on triangle `[a, b, d]`.
-pub(crate) fn barycentric(c: Vec3, [a, b, d]: [Vec3; 3]) -> [f32; 3] {
-    let (v0, v1, v2) = (b - a, d - a, c - a);
-    let (d00, d01, d11) = (v0.dot(v0), v0.dot(v1), v1.dot(v1));
-    let (d20, d21) = (v2.dot(v0), v2.dot(v1));
-    let denom = d00 * d11 - d01 * d01;
-    if denom.abs() < 1e-20 {
-        return [1.0 / 3.0; 3];
-    }
-    let v = (d11 * d20 - d01 * d21) / denom;
-    let w = (d00 * d21 - d01 * d20) / denom;
-    [1.0 - v - w, v, w]
 }
 
 /// The box (m) of `points`, if every one is finite.

@@ -16,19 +16,19 @@ pub struct SelfCollisionBuffers {
     entries: Vec<(u64, u32)>,
 }
 
-fn cell_of(p: Vec3, inv_cell: f32) -> [i32; 3] {
+pub(super) fn cell_of(p: Vec3, inv_cell: f32) -> [i32; 3] {
     let c = (p * inv_cell).floor();
     [c.x as i32, c.y as i32, c.z as i32]
 }
 
-fn key([x, y, z]: [i32; 3]) -> u64 {
+pub(super) fn key([x, y, z]: [i32; 3]) -> u64 {
     (x as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15)
         ^ (y as u64).wrapping_mul(0xC2B2_AE3D_27D4_EB4F)
         ^ (z as u64).wrapping_mul(0x1656_67B1_9E37_79F9)
 }
 
 /// Barycentric weights of point `c` on triangle `[a, b, d]`.
-fn barycentric(c: Vec3, [a, b, d]: [Vec3; 3]) -> [f32; 3] {
+pub(super) fn barycentric(c: Vec3, [a, b, d]: [Vec3; 3]) -> [f32; 3] {
     let (v0, v1, v2) = (b - a, d - a, c - a);
     let (d00, d01, d11) = (v0.dot(v0), v0.dot(v1), v1.dot(v1));
     let (d20, d21) = (v2.dot(v0), v2.dot(v1));
