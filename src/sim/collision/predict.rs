@@ -230,8 +230,8 @@ fn mesh_crossing(mesh: &TriMesh, p0: Vec3, p1: Vec3) -> Option<(Vec3, Vec3)> {
 /// surface, a free body, another cloth), with normals facing the nearest
 /// one's, keeps the nearest contact of each kind: a plate on a tablecloth
 /// on a table rests on the cloth, which rests on the table, rather than
-/// sinking through the cloth, and a sheet between a ball and another
-/// sheet lying on it is held by both.
+/// sinking through the cloth, and a particle caught between a collider
+/// and another cloth is held off both.
 pub fn keep_nearest(contacts: &mut Vec<SolveContact>, kind: impl Fn(u32) -> u8) {
     contacts.sort_unstable_by(|a, b| {
         (a.particle.cmp(&b.particle))
