@@ -8,28 +8,7 @@ use bevy::prelude::*;
 use bevy_cloth::ClothStats;
 use bevy_cloth::plugin::collision::ClothCollisionStats;
 use bevy_cloth::prelude::*;
-use bevy_cloth::sim::collision::trimesh::closest_point_on_triangle;
-use bevy_cloth::sim::grid::Faces;
-use common::{app, particles};
-
-/// The smallest distance (m) between the surfaces of cloths `a` and `b`:
-/// each one's particles against the other's triangles.
-fn closest(app: &App, a: Entity, b: Entity) -> f32 {
-    let one_way = |p: Entity, t: Entity| {
-        let x = &particles(app, p).positions;
-        let y = &particles(app, t).positions;
-        let faces = app.world().get::<Cloth>(t).unwrap();
-        let mut least = f32::MAX;
-        for &point in x {
-            for tri in faces.faces() {
-                let corners = tri.map(|q| y[q as usize]);
-                least = least.min(point.distance(closest_point_on_triangle(point, corners)));
-            }
-        }
-        least
-    };
-    one_way(a, b).min(one_way(b, a))
-}
+use common::{app, closest, particles};
 
 /// A horizontal `n × n` sheet of side `size` m centred at `at`.
 fn flat(n: u32, size: f32, at: Vec3) -> ClothBundle {

@@ -10,7 +10,7 @@ use bevy_cloth::ClothStats;
 use bevy_cloth::prelude::*;
 use bevy_cloth::sim::collision::trimesh::closest_point_on_triangle;
 use bevy_cloth::sim::grid::Faces;
-use common::{app, particles};
+use common::{app, closest, particles};
 
 /// A skinned sheet of `rows` × `columns` vertices, every vertex on joint 0,
 /// placed by `at(row, column)` (m); freedom 0 on row 0 (held to the
@@ -66,25 +66,6 @@ fn cape() -> Mesh {
         let t = j as f32 / 12.0;
         Vec3::new(-0.3 + 0.06 * i as f32, 1.45 - 0.9 * t, -0.2 - 0.2 * t)
     })
-}
-
-/// The smallest distance (m) between the surfaces of cloths `a` and `b`:
-/// each one's particles against the other's triangles.
-fn closest(app: &App, a: Entity, b: Entity) -> f32 {
-    let one_way = |p: Entity, t: Entity| {
-        let x = &particles(app, p).positions;
-        let y = &particles(app, t).positions;
-        let faces = app.world().get::<Cloth>(t).unwrap();
-        let mut least = f32::MAX;
-        for &point in x {
-            for tri in faces.faces() {
-                let corners = tri.map(|q| y[q as usize]);
-                least = least.min(point.distance(closest_point_on_triangle(point, corners)));
-            }
-        }
-        least
-    };
-    one_way(a, b).min(one_way(b, a))
 }
 
 /// How many particles of the cape lie inside the skirt: nearer than 5 cm

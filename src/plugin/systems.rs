@@ -334,9 +334,13 @@ pub(crate) fn step_cloths(
         };
         item.scratch.sleep.settings = settings.sleep;
         // Other cloths it may reach this step: one moving near it wakes it.
-        let fastest = || {
-            let v = &item.particles.velocities;
-            v.iter().map(|v| v.length()).fold(0.0, f32::max)
+        // The fastest particle (m/s), scanned once, when first asked for.
+        let mut speed = None;
+        let mut fastest = || {
+            *speed.get_or_insert_with(|| {
+                let v = &item.particles.velocities;
+                v.iter().map(|v| v.length()).fold(0.0, f32::max)
+            })
         };
         let reach = |speed: f32| 2.0 * speed * dt + settings.gravity.length() * dt * dt + 0.01;
         let mut cloth_moving = false;

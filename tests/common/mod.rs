@@ -322,3 +322,24 @@ pub fn paper_app_with(stepping: ClothSettings) -> App {
     app.insert_resource(ClothDefaults(settings));
     app
 }
+
+/// The smallest distance (m) between the surfaces of cloths `a` and `b`:
+/// each one's particles against the other's triangles.
+pub fn closest(app: &App, a: Entity, b: Entity) -> f32 {
+    let one_way = |p: Entity, t: Entity| {
+        let x = &particles(app, p).positions;
+        let y = &particles(app, t).positions;
+        let faces = app.world().get::<Cloth>(t).unwrap();
+        let mut least = f32::MAX;
+        for &point in x {
+            for tri in bevy_cloth::sim::grid::Faces::faces(faces) {
+                let corners = tri.map(|q| y[q as usize]);
+                let near =
+                    bevy_cloth::sim::collision::trimesh::closest_point_on_triangle(point, corners);
+                least = least.min(point.distance(near));
+            }
+        }
+        least
+    };
+    one_way(a, b).min(one_way(b, a))
+}

@@ -354,9 +354,7 @@ impl ClothContacts<'_> {
         // One contact a particle for its friction: the nearest.
         let held = &mut self.scratch.held;
         held.sort_unstable_by(|a, b| {
-            (a.0.particle, a.0.gap)
-                .partial_cmp(&(b.0.particle, b.0.gap))
-                .unwrap_or(std::cmp::Ordering::Equal)
+            (a.0.particle.cmp(&b.0.particle)).then(a.0.gap.total_cmp(&b.0.gap))
         });
         held.dedup_by_key(|c| c.0.particle);
         self.contacts += (out.len() - before) as u32;
