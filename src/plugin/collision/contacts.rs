@@ -6,8 +6,9 @@ use bevy::math::{Isometry3d, Quat, Vec3};
 
 use crate::plugin::collision::scene::{ColliderScene, ContactImpulse, SceneCollider};
 use crate::plugin::components::Cloth;
+use crate::sim::collision::ccd::prevent_crossings;
 use crate::sim::collision::contact::{MovingCollider, collide_particles};
-use crate::sim::collision::self_collision::self_collide;
+use crate::sim::collision::self_collision::{keep_apart, self_collide};
 use crate::sim::collision::{Counts, SelfCollisionBuffers};
 use crate::sim::collision::{edges, predict};
 use crate::sim::connections::Link;
@@ -291,7 +292,7 @@ impl ContactHook for SceneContacts<'_> {
         }
         let mut itself = Counts::default();
         if let Some((cloth, thickness, buffers)) = self.self_collision.as_mut() {
-            itself = self_collide(*cloth, start, x, v, w, *thickness, buffers);
+            itself = keep_apart(*cloth, start, x, v, w, *thickness, buffers);
         }
         if let Some(cloths) = self.cloths.as_mut() {
             cloths.resolve(sub, (start, x, v), all, held);
@@ -320,6 +321,12 @@ impl ContactHook for SceneContacts<'_> {
                     self.feedback.measure(c, x, v, all);
                 }
             }
+        }
+        // Last, so that nothing after it moves the cloth through itself:
+        // the particles held against colliders may give way here too.
+        if let Some((cloth, thickness, buffers)) = self.self_collision.as_mut() {
+            let crossings = buffers.crossings();
+            itself += prevent_crossings(*cloth, start, x, v, all, *thickness, crossings).into();
         }
         self.counts.0 += against;
         self.counts.1 += itself;

@@ -7,6 +7,7 @@
 //! the components that place colliders in a scene live in
 //! [`plugin::collision`](crate::plugin::collision).
 
+pub mod ccd;
 pub mod cloths;
 pub mod contact;
 pub mod edges;

@@ -1,10 +1,12 @@
 //! Opt-in self-collision: vertex–triangle proximity within one cloth, with a
-//! spatial hash over its triangles (MODEL.md §8.3). Off unless a cloth has
+//! spatial hash over its triangles, then continuous particle–triangle and
+//! edge–edge collision ([`ccd`](super::ccd)). Off unless a cloth has
 //! [`ClothSelfCollision`](crate::plugin::collision::ClothSelfCollision), as the paper leaves it
 //! out for speed.
 
 use bevy::math::Vec3;
 
+use super::ccd::{CrossingBuffers, prevent_crossings, split};
 use super::contact::Counts;
 use super::trimesh::closest_point_on_triangle;
 use crate::sim::grid::Faces;
@@ -14,6 +16,8 @@ use crate::sim::grid::Faces;
 pub struct SelfCollisionBuffers {
     /// `(cell key, triangle)` pairs sorted by key.
     entries: Vec<(u64, u32)>,
+    /// The continuous pass's buffers.
+    crossings: CrossingBuffers,
 }
 
 pub(super) fn cell_of(p: Vec3, inv_cell: f32) -> [i32; 3] {
@@ -43,14 +47,35 @@ pub(super) fn barycentric(c: Vec3, [a, b, d]: [Vec3; 3]) -> [f32; 3] {
 
 /// Keeps every particle of `cloth` at least `thickness` m from every
 /// triangle it is not a corner of. Corrections are split by inverse mass
-/// between the particle and the triangle's corners (momentum is conserved),
+/// between the particle and the triangle's corners (momentum is conserved;
+/// no particle moves farther than the correction, [`split`]),
 /// and their approaching normal velocity is removed. `x` in m, `v` in m/s.
 ///
 /// A particle within `thickness` of a triangle's inside is put back on the
 /// side of the triangle's plane it was on at the step's start (`start`,
 /// m): one that went through the triangle in this step, or lies on it,
-/// does not stay on the wrong side.
+/// does not stay on the wrong side. Then no particle passes through a
+/// triangle and no edge through an edge over the step, however far they
+/// moved ([`prevent_crossings`]).
 pub fn self_collide(
+    cloth: &impl Faces,
+    start: &[Vec3],
+    x: &mut [Vec3],
+    v: &mut [Vec3],
+    inverse_masses: &[f32],
+    thickness: f32,
+    buffers: &mut SelfCollisionBuffers,
+) -> Counts {
+    let mut counts = keep_apart(cloth, start, x, v, inverse_masses, thickness, buffers);
+    let crossings = &mut buffers.crossings;
+    counts += prevent_crossings(cloth, start, x, v, inverse_masses, thickness, crossings).into();
+    counts
+}
+
+/// The proximity pass of [`self_collide`] alone: keeps every particle at
+/// least `thickness` m from the triangles it is not a corner of, on the
+/// side it started on.
+pub fn keep_apart(
     cloth: &impl Faces,
     start: &[Vec3],
     x: &mut [Vec3],
@@ -125,15 +150,15 @@ pub fn self_collide(
                 face
             };
             let wp = inverse_masses[p];
-            let wt: f32 = (0..3)
-                .map(|i| bary[i] * bary[i] * inverse_masses[tri[i] as usize])
-                .sum();
-            if wp + wt == 0.0 {
+            let lever = [1.0, -bary[0], -bary[1], -bary[2]];
+            let masses = [p as u32, tri[0], tri[1], tri[2]].map(|q| inverse_masses[q as usize]);
+            let share = split(lever, masses);
+            if share == 0.0 {
                 continue;
             }
             counts.contacts += 1;
             // Position: close the gap to the thickness.
-            let s = depth / (wp + wt);
+            let s = depth / share;
             x[p] += wp * s * n;
             for i in 0..3 {
                 let q = tri[i] as usize;
@@ -143,7 +168,7 @@ pub fn self_collide(
             let vt: Vec3 = (0..3).map(|i| bary[i] * v[tri[i] as usize]).sum();
             let vn = (v[p] - vt).dot(n);
             if vn < 0.0 {
-                let j = -vn / (wp + wt);
+                let j = -vn / share;
                 v[p] += wp * j * n;
                 for i in 0..3 {
                     let q = tri[i] as usize;
@@ -153,6 +178,13 @@ pub fn self_collide(
         }
     }
     counts
+}
+
+impl SelfCollisionBuffers {
+    /// The continuous pass's buffers.
+    pub(crate) fn crossings(&mut self) -> &mut CrossingBuffers {
+        &mut self.crossings
+    }
 }
 
 #[cfg(test)]

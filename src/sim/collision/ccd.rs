@@ -1,0 +1,740 @@
+//! Continuous collision within one cloth: no particle passes through one of
+//! its triangles and no edge through another edge during a step, however
+//! fast the cloth folds.
+//!
+//! Each particle moves on a straight line from where it was at the step's
+//! start to where the step put it. A particle and a triangle cross when the
+//! particle goes through the triangle's plane inside the triangle; two edges
+//! cross when, at the moment their four ends are coplanar, the segments meet.
+//! The moment is the root in `[0, 1]` of the cubic that says the four points
+//! are coplanar, found in double precision.
+//!
+//! [`prevent_crossings`] resolves what it finds in two stages:
+//! 1. **Pushes**, for a few rounds: each crossing pair is pushed apart at the
+//!    step's end along the normal of the moment they met, to the thickness on
+//!    the side they came from, split by inverse mass, and their approach
+//!    (m/s) along it is removed.
+//! 2. **Impact zones**, if crossings remain: the particles of each crossing
+//!    pair, merged with every zone they touch, move as one rigid piece over
+//!    the step: from where they were at its start by their mass-weighted
+//!    mean displacement, on at their mean velocity (a held particle's
+//!    motion when the zone holds one). Repeated until nothing crosses, as
+//!    zones merge: a zone that moves as one cannot cross itself, so the step
+//!    ends without a crossing if it began without one (and its held
+//!    particles move alike), within [`ZONE_PASSES`] passes.
+
+use bevy::math::{DVec3, Vec3};
+
+use super::contact::Counts;
+use super::self_collision::{cell_of, key};
+use crate::sim::grid::Faces;
+
+/// Rounds of pushes before the impact zones.
+const PUSH_ROUNDS: usize = 3;
+
+/// Most passes of the impact zones; each merges zones or moves particles
+/// not moved before, so a pass without either ends them sooner.
+const ZONE_PASSES: usize = 16;
+
+/// Largest number of hash cells a box spans along one axis; a box spanning
+/// more is tested against every element of the other kind.
+const MAX_SPAN: i32 = 8;
+
+/// Reusable buffers of [`prevent_crossings`] (no allocation once warm).
+#[derive(Clone, Debug, Default)]
+pub struct CrossingBuffers {
+    /// The cloth's triangle edges, each once, as `[low, high]` particles.
+    edges: Vec<[u32; 2]>,
+    /// Face count and a hash of the faces the edges were listed for.
+    edges_for: (usize, u64),
+    /// `(cell key, triangle)` of the triangles' swept boxes, sorted.
+    triangles: Vec<(u64, u32)>,
+    /// `(cell key, edge)` of the edges' swept boxes, sorted.
+    edge_cells: Vec<(u64, u32)>,
+    /// Triangles and edges whose swept box spans more than [`MAX_SPAN`] cells.
+    big_triangles: Vec<u32>,
+    big_edges: Vec<u32>,
+    /// Swept boxes: of the particles, the triangles, the edges (m).
+    point_boxes: Vec<(Vec3, Vec3)>,
+    triangle_boxes: Vec<(Vec3, Vec3)>,
+    edge_boxes: Vec<(Vec3, Vec3)>,
+    /// The crossings found in one pass.
+    found: Vec<Crossing>,
+    /// Scratch: displacements for the cell size.
+    scratch: Vec<f32>,
+    /// The impact zones: union–find parents, particles sent back, the
+    /// zones touched in a pass and their sums.
+    zone: Vec<u32>,
+    stopped: Vec<bool>,
+    touched: Vec<u32>,
+    sums: Vec<ZoneSums>,
+}
+
+/// Two features of the cloth that crossed during the step.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Crossing {
+    /// The four particles: a particle and a triangle's corners, or the two
+    /// ends of one edge and the two of the other.
+    pub particles: [u32; 4],
+    /// Weights of the four particles' positions whose sum is the separation
+    /// (m) of the two features: `1, -b0, -b1, -b2` for a particle and a
+    /// triangle, `1 - s, s, -(1 - u), -u` for two edges.
+    pub weights: [f32; 4],
+    /// The unit normal at the moment they met, turned towards the side the
+    /// first feature came from.
+    pub normal: Vec3,
+    /// The moment they met, as a fraction of the step.
+    pub at: f32,
+}
+
+impl Crossing {
+    /// The separation along the normal of the features at `x`, m.
+    fn gap(&self, x: &[Vec3]) -> f32 {
+        (0..4)
+            .map(|i| self.weights[i] * x[self.particles[i] as usize])
+            .sum::<Vec3>()
+            .dot(self.normal)
+    }
+}
+
+/// What [`prevent_crossings`] did.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct CrossingCounts {
+    /// Particle–triangle and edge–edge pairs tested exactly.
+    pub tests: u32,
+    /// Crossings found in the first pass.
+    pub crossings: u32,
+    /// Particles sent back to their start by an impact zone.
+    pub stopped: u32,
+}
+
+/// The roots in `[0, 1]` of `k0 + k1 t + k2 t² + k3 t³` where it changes
+/// sign by more than `noise` either way, earliest first, at most three.
+fn sign_changes([k0, k1, k2, k3]: [f64; 4], noise: f64, out: &mut [f64; 3]) -> usize {
+    let f = |t: f64| ((k3 * t + k2) * t + k1) * t + k0;
+    // Split [0, 1] where the derivative 3 k3 t² + 2 k2 t + k1 vanishes.
+    let mut cuts = [0.0, 1.0, 1.0, 1.0];
+    let mut n = 1;
+    let (a, b, c) = (3.0 * k3, 2.0 * k2, k1);
+    let mut critical = |t: f64| {
+        if t > 0.0 && t < 1.0 {
+            cuts[n] = t;
+            n += 1;
+        }
+    };
+    if a.abs() > 1e-300 {
+        let disc = b * b - 4.0 * a * c;
+        if disc > 0.0 {
+            let r = disc.sqrt();
+            let q = -0.5 * (b + b.signum() * r);
+            let (t0, t1) = (q / a, if q != 0.0 { c / q } else { -b / a });
+            let (t0, t1) = (t0.min(t1), t0.max(t1));
+            critical(t0);
+            critical(t1);
+        }
+    } else if b.abs() > 1e-300 {
+        critical(-c / b);
+    }
+    cuts[n] = 1.0;
+    let mut roots = 0;
+    for i in 0..n {
+        let (mut lo, mut hi) = (cuts[i], cuts[i + 1]);
+        let (flo, fhi) = (f(lo), f(hi));
+        if !((flo > noise && fhi < -noise) || (flo < -noise && fhi > noise)) {
+            continue;
+        }
+        let rising = fhi > 0.0;
+        for _ in 0..48 {
+            let mid = 0.5 * (lo + hi);
+            if (f(mid) > 0.0) == rising {
+                hi = mid;
+            } else {
+                lo = mid;
+            }
+        }
+        out[roots] = 0.5 * (lo + hi);
+        roots += 1;
+    }
+    roots
+}
+
+/// The coefficients in `t` of `((b - a) × (c - a)) · (d - a)` for points
+/// moving at constant velocity from `p0` to `p1` over `t ∈ [0, 1]`.
+fn coplanarity(p0: [DVec3; 4], p1: [DVec3; 4]) -> [f64; 4] {
+    let (a0, a1) = (p0[1] - p0[0], p1[1] - p1[0]);
+    let (b0, b1) = (p0[2] - p0[0], p1[2] - p1[0]);
+    let (c0, c1) = (p0[3] - p0[0], p1[3] - p1[0]);
+    let (da, db, dc) = (a1 - a0, b1 - b0, c1 - c0);
+    let ab = a0.cross(b0);
+    let ab1 = a0.cross(db) + da.cross(b0);
+    let ab2 = da.cross(db);
+    [
+        ab.dot(c0),
+        ab.dot(dc) + ab1.dot(c0),
+        ab1.dot(dc) + ab2.dot(c0),
+        ab2.dot(dc),
+    ]
+}
+
+/// How far from zero the coplanarity product of four points (m³) may be by
+/// the rounding of their single-precision positions alone: points that
+/// coincide (the two sides of a tear) or lie in one plane are not taken
+/// for being on either side.
+fn rounding(p0: [DVec3; 4], p1: [DVec3; 4]) -> f64 {
+    let reach = p0
+        .iter()
+        .chain(&p1)
+        .map(|p| p.abs().max_element())
+        .fold(0.0, f64::max);
+    let length = |i: usize| (p0[i] - p0[0]).length().max((p1[i] - p1[0]).length());
+    let (a, b, c) = (length(1), length(2), length(3));
+    let delta = 4.0 * f32::EPSILON as f64 * reach.max(1.0);
+    delta * (a * b + b * c + c * a) + 1e-12 * a * b * c
+}
+
+fn wide(p: Vec3) -> DVec3 {
+    p.as_dvec3()
+}
+
+/// Barycentric weights of `p` on triangle `[a, b, c]` (double precision).
+fn barycentric(p: DVec3, [a, b, c]: [DVec3; 3]) -> Option<[f64; 3]> {
+    let (v0, v1, v2) = (b - a, c - a, p - a);
+    let (d00, d01, d11) = (v0.dot(v0), v0.dot(v1), v1.dot(v1));
+    let (d20, d21) = (v2.dot(v0), v2.dot(v1));
+    let denom = d00 * d11 - d01 * d01;
+    if denom.is_nan() || denom.abs() <= 1e-30 {
+        return None;
+    }
+    let v = (d11 * d20 - d01 * d21) / denom;
+    let w = (d00 * d21 - d01 * d20) / denom;
+    Some([1.0 - v - w, v, w])
+}
+
+/// Parameters `(s, u)` of the closest points of segments `p0 p1` and
+/// `q0 q1`, and their distance (double precision).
+fn segments_closest(p0: DVec3, p1: DVec3, q0: DVec3, q1: DVec3) -> (f64, f64, f64) {
+    let (d1, d2, r) = (p1 - p0, q1 - q0, p0 - q0);
+    let (a, e, f) = (d1.dot(d1), d2.dot(d2), d2.dot(r));
+    let (s, u) = if a <= 1e-30 && e <= 1e-30 {
+        (0.0, 0.0)
+    } else if a <= 1e-30 {
+        (0.0, (f / e).clamp(0.0, 1.0))
+    } else {
+        let c = d1.dot(r);
+        if e <= 1e-30 {
+            ((-c / a).clamp(0.0, 1.0), 0.0)
+        } else {
+            let b = d1.dot(d2);
+            let denom = a * e - b * b;
+            let mut s = if denom > 1e-30 * a * e {
+                ((b * f - c * e) / denom).clamp(0.0, 1.0)
+            } else {
+                0.0
+            };
+            let mut u = (b * s + f) / e;
+            if u < 0.0 {
+                u = 0.0;
+                s = (-c / a).clamp(0.0, 1.0);
+            } else if u > 1.0 {
+                u = 1.0;
+                s = ((b - c) / a).clamp(0.0, 1.0);
+            }
+            (s, u)
+        }
+    };
+    let gap = (p0 + d1 * s) - (q0 + d2 * u);
+    (s, u, gap.length())
+}
+
+/// The normal of the crossing, turned towards where the separation
+/// `weights · x` pointed at the start (or away from where it points at the
+/// end, when the features started in one plane).
+fn oriented(normal: DVec3, weights: [f64; 4], p0: [DVec3; 4], p1: [DVec3; 4]) -> Option<Vec3> {
+    let n = normal.try_normalize()?;
+    let sep = |p: [DVec3; 4]| (0..4).map(|i| weights[i] * p[i]).sum::<DVec3>().dot(n);
+    let (before, after) = (sep(p0), sep(p1));
+    let sign = if before != 0.0 {
+        before.signum()
+    } else if after != 0.0 {
+        -after.signum()
+    } else {
+        return None;
+    };
+    Some((n * sign).as_vec3())
+}
+
+/// Whether particle `p` passes through triangle `tri` during the step, and
+/// how.
+pub fn point_triangle(p: u32, tri: [u32; 3], start: &[Vec3], end: &[Vec3]) -> Option<Crossing> {
+    let ids = [tri[0], tri[1], tri[2], p];
+    let p0 = ids.map(|i| wide(start[i as usize]));
+    let p1 = ids.map(|i| wide(end[i as usize]));
+    let mut roots = [0.0; 3];
+    let found = sign_changes(coplanarity(p0, p1), rounding(p0, p1), &mut roots);
+    for &t in &roots[..found] {
+        let at = std::array::from_fn::<DVec3, 4, _>(|i| p0[i].lerp(p1[i], t));
+        let Some(b) = barycentric(at[3], [at[0], at[1], at[2]]) else {
+            continue;
+        };
+        if b.iter().any(|&b| b < -1e-6) {
+            continue;
+        }
+        let weights = [1.0, -b[0], -b[1], -b[2]];
+        let order = [3, 0, 1, 2];
+        let (q0, q1) = (order.map(|i| p0[i]), order.map(|i| p1[i]));
+        let normal = (at[1] - at[0]).cross(at[2] - at[0]);
+        let normal = oriented(normal, weights, q0, q1)?;
+        return Some(Crossing {
+            particles: [p, tri[0], tri[1], tri[2]],
+            weights: weights.map(|w| w as f32),
+            normal,
+            at: t as f32,
+        });
+    }
+    None
+}
+
+/// Whether edges `e` and `f` pass through each other during the step, and
+/// how.
+pub fn edge_edge(e: [u32; 2], f: [u32; 2], start: &[Vec3], end: &[Vec3]) -> Option<Crossing> {
+    let ids = [e[0], e[1], f[0], f[1]];
+    let p0 = ids.map(|i| wide(start[i as usize]));
+    let p1 = ids.map(|i| wide(end[i as usize]));
+    let mut roots = [0.0; 3];
+    let found = sign_changes(coplanarity(p0, p1), rounding(p0, p1), &mut roots);
+    for &t in &roots[..found] {
+        let at = std::array::from_fn::<DVec3, 4, _>(|i| p0[i].lerp(p1[i], t));
+        let (s, u, gap) = segments_closest(at[0], at[1], at[2], at[3]);
+        let scale = (at[1] - at[0]).length() + (at[3] - at[2]).length();
+        if gap.is_nan() || gap > 1e-6 * scale {
+            continue;
+        }
+        let weights = [1.0 - s, s, -(1.0 - u), -u];
+        let (d1, d2) = (at[1] - at[0], at[3] - at[2]);
+        let mut normal = d1.cross(d2);
+        if normal.length_squared() < 1e-4 * d1.length_squared() * d2.length_squared() {
+            // Nearly parallel: the edges' plane is ill-defined; part them
+            // along where they were apart at the start, off the edge.
+            let apart = (0..4).map(|i| weights[i] * p0[i]).sum::<DVec3>();
+            normal = apart - d1 * apart.dot(d1) / d1.length_squared().max(1e-30);
+        }
+        let normal = oriented(normal, weights, p0, p1)?;
+        return Some(Crossing {
+            particles: ids,
+            weights: weights.map(|w| w as f32),
+            normal,
+            at: t as f32,
+        });
+    }
+    None
+}
+
+fn swept(a: Vec3, b: Vec3) -> (Vec3, Vec3) {
+    (a.min(b), a.max(b))
+}
+
+fn union((lo, hi): (Vec3, Vec3), (l, h): (Vec3, Vec3)) -> (Vec3, Vec3) {
+    (lo.min(l), hi.max(h))
+}
+
+fn overlap((lo, hi): (Vec3, Vec3), (l, h): (Vec3, Vec3)) -> bool {
+    lo.cmple(h).all() && l.cmple(hi).all()
+}
+
+/// Enters `(key, item)` for each cell of `bx` into `cells`, or `item` into
+/// `big` when the box spans more than [`MAX_SPAN`] cells along an axis.
+fn enter(bx: (Vec3, Vec3), inv: f32, item: u32, cells: &mut Vec<(u64, u32)>, big: &mut Vec<u32>) {
+    let (lo, hi) = (cell_of(bx.0, inv), cell_of(bx.1, inv));
+    if (0..3).any(|a| hi[a].saturating_sub(lo[a]) >= MAX_SPAN) {
+        big.push(item);
+        return;
+    }
+    for i in lo[0]..=hi[0] {
+        for j in lo[1]..=hi[1] {
+            for k in lo[2]..=hi[2] {
+                cells.push((key([i, j, k]), item));
+            }
+        }
+    }
+}
+
+/// Hashed items: `(cell key, item)` sorted by key, every item's box (m),
+/// and the items too large to hash.
+type Table<'a> = (&'a [(u64, u32)], &'a [(Vec3, Vec3)], &'a [u32]);
+
+/// Calls `each` once for every item of `cells` (and of `big`) whose box may
+/// overlap `bx`: in the first cell the two boxes share.
+fn candidates(bx: (Vec3, Vec3), inv: f32, (cells, boxes, big): Table, mut each: impl FnMut(u32)) {
+    for &item in big {
+        if overlap(bx, boxes[item as usize]) {
+            each(item);
+        }
+    }
+    let (lo, hi) = (cell_of(bx.0, inv), cell_of(bx.1, inv));
+    let span = (0..3)
+        .map(|a| hi[a].saturating_sub(lo[a]))
+        .max()
+        .unwrap_or(0);
+    if span >= MAX_SPAN {
+        // A large box: test it against every box of the other kind.
+        for (item, other) in boxes.iter().enumerate() {
+            if overlap(bx, *other) && !big.contains(&(item as u32)) {
+                each(item as u32);
+            }
+        }
+        return;
+    }
+    for i in lo[0]..=hi[0] {
+        for j in lo[1]..=hi[1] {
+            for k in lo[2]..=hi[2] {
+                let cell = key([i, j, k]);
+                let from = cells.partition_point(|e| e.0 < cell);
+                for &(_, item) in cells[from..].iter().take_while(|e| e.0 == cell) {
+                    let other = boxes[item as usize];
+                    if !overlap(bx, other) {
+                        continue;
+                    }
+                    // Only in the first cell both boxes are entered in.
+                    let first = cell_of(bx.0.max(other.0), inv);
+                    if first == [i, j, k] {
+                        each(item);
+                    }
+                }
+            }
+        }
+    }
+}
+
+impl CrossingBuffers {
+    /// Lists the cloth's edges, again whenever its triangles change (a tear).
+    fn list_edges(&mut self, cloth: &impl Faces) {
+        let hash = cloth.faces().fold(0u64, |h, [a, b, c]| {
+            let face = (a as u64) | (b as u64) << 21 | (c as u64) << 42;
+            (h ^ face)
+                .wrapping_mul(0x9E37_79B9_7F4A_7C15)
+                .rotate_left(29)
+        });
+        let tag = (cloth.face_count(), hash);
+        if self.edges_for == tag && !self.edges.is_empty() {
+            return;
+        }
+        self.edges.clear();
+        for [a, b, c] in cloth.faces() {
+            for (p, q) in [(a, b), (b, c), (c, a)] {
+                self.edges.push([p.min(q), p.max(q)]);
+            }
+        }
+        self.edges.sort_unstable();
+        self.edges.dedup();
+        self.edges_for = tag;
+    }
+
+    /// Lists every crossing from `start` to `x` into `found`; returns the
+    /// pairs tested.
+    fn find(&mut self, cloth: &impl Faces, start: &[Vec3], x: &[Vec3], thickness: f32) -> u32 {
+        self.found.clear();
+        let n = x.len();
+        self.point_boxes.clear();
+        self.point_boxes
+            .extend((0..n).map(|p| swept(start[p], x[p])));
+        if self
+            .point_boxes
+            .iter()
+            .any(|b| !(b.0.is_finite() && b.1.is_finite()))
+        {
+            // A cloth with a non-finite particle: the guard deals with it.
+            return 0;
+        }
+        // Cells as large as most particles' paths, and at least the
+        // cloth's own cell.
+        self.scratch.clear();
+        self.scratch.extend(
+            self.point_boxes
+                .iter()
+                .map(|(lo, hi)| (*hi - *lo).max_element()),
+        );
+        let k = (self.scratch.len() * 9 / 10).min(self.scratch.len().saturating_sub(1));
+        let typical = if self.scratch.is_empty() {
+            0.0
+        } else {
+            *self.scratch.select_nth_unstable_by(k, f32::total_cmp).1
+        };
+        let cell = cloth.cell_size().max(2.0 * thickness).max(2.0 * typical);
+        let inv = 1.0 / cell;
+        let pb = &self.point_boxes;
+        self.triangle_boxes.clear();
+        self.triangle_boxes.extend(
+            cloth
+                .faces()
+                .map(|[a, b, c]| union(union(pb[a as usize], pb[b as usize]), pb[c as usize])),
+        );
+        self.edge_boxes.clear();
+        self.edge_boxes.extend(
+            self.edges
+                .iter()
+                .map(|&[a, b]| union(pb[a as usize], pb[b as usize])),
+        );
+        self.triangles.clear();
+        self.big_triangles.clear();
+        for (t, &bx) in self.triangle_boxes.iter().enumerate() {
+            enter(
+                bx,
+                inv,
+                t as u32,
+                &mut self.triangles,
+                &mut self.big_triangles,
+            );
+        }
+        self.triangles.sort_unstable();
+        self.edge_cells.clear();
+        self.big_edges.clear();
+        for (e, &bx) in self.edge_boxes.iter().enumerate() {
+            enter(bx, inv, e as u32, &mut self.edge_cells, &mut self.big_edges);
+        }
+        self.edge_cells.sort_unstable();
+        let mut tests = 0;
+        let found = &mut self.found;
+        for p in 0..n as u32 {
+            let table = (
+                &self.triangles[..],
+                &self.triangle_boxes[..],
+                &self.big_triangles[..],
+            );
+            candidates(self.point_boxes[p as usize], inv, table, |t| {
+                let tri = cloth.face(t);
+                if tri.contains(&p) {
+                    return;
+                }
+                tests += 1;
+                if let Some(c) = point_triangle(p, tri, start, x) {
+                    found.push(c);
+                }
+            });
+        }
+        for (e, &edge) in self.edges.iter().enumerate() {
+            let table = (
+                &self.edge_cells[..],
+                &self.edge_boxes[..],
+                &self.big_edges[..],
+            );
+            candidates(self.edge_boxes[e], inv, table, |f| {
+                let other = self.edges[f as usize];
+                if f as usize <= e || other.contains(&edge[0]) || other.contains(&edge[1]) {
+                    return;
+                }
+                tests += 1;
+                if let Some(c) = edge_edge(edge, other, start, x) {
+                    found.push(c);
+                }
+            });
+        }
+        tests
+    }
+
+    fn root(&mut self, mut p: u32) -> u32 {
+        while self.zone[p as usize] != p {
+            let up = self.zone[self.zone[p as usize] as usize];
+            self.zone[p as usize] = up;
+            p = up;
+        }
+        p
+    }
+}
+
+/// The denominator that splits a change of the separation `Σ cᵢ xᵢ` (m or
+/// m/s) between particles of inverse masses `wᵢ`: `Σ cᵢ² wᵢ`, but never less
+/// than the largest `|cᵢ| wᵢ`, so that no particle moves farther than the
+/// change itself. (A contact beside a held corner would otherwise throw the
+/// triangle's one free corner `1 / cᵢ` times as far.)
+pub(super) fn split(c: [f32; 4], w: [f32; 4]) -> f32 {
+    let share: f32 = (0..4).map(|i| c[i] * c[i] * w[i]).sum();
+    (0..4).map(|i| c[i].abs() * w[i]).fold(share, f32::max)
+}
+
+/// Pushes the two features of `c` apart at the step's end to `thickness`
+/// m along its normal and removes their approach along it (m/s), split by
+/// the inverse masses `w`.
+fn push(c: &Crossing, x: &mut [Vec3], v: &mut [Vec3], w: &[f32], thickness: f32) {
+    let ids = c.particles.map(|p| p as usize);
+    let share = split(c.weights, ids.map(|i| w[i]));
+    if share.is_nan() || share <= 0.0 {
+        return;
+    }
+    let depth = thickness - c.gap(x);
+    if depth > 0.0 {
+        let s = depth / share;
+        for i in 0..4 {
+            x[ids[i]] += c.weights[i] * w[ids[i]] * s * c.normal;
+        }
+    }
+    let approach = c.gap(v);
+    if approach < 0.0 {
+        let j = -approach / share;
+        for i in 0..4 {
+            v[ids[i]] += c.weights[i] * w[ids[i]] * j * c.normal;
+        }
+    }
+}
+
+/// Keeps `cloth` from passing through itself during a step from `start` to
+/// `x` (m): see the [module](self). `v` (m/s) is changed with `x`; particles
+/// with inverse mass `w == 0` are not moved. `thickness` (m) is the distance
+/// a push leaves between the features.
+pub fn prevent_crossings(
+    cloth: &impl Faces,
+    start: &[Vec3],
+    x: &mut [Vec3],
+    v: &mut [Vec3],
+    w: &[f32],
+    thickness: f32,
+    buffers: &mut CrossingBuffers,
+) -> CrossingCounts {
+    let mut counts = CrossingCounts::default();
+    if x.len() != start.len() || !(thickness.is_finite() && thickness > 0.0) {
+        return counts;
+    }
+    buffers.list_edges(cloth);
+    for round in 0..PUSH_ROUNDS {
+        counts.tests += buffers.find(cloth, start, x, thickness);
+        if round == 0 {
+            counts.crossings = buffers.found.len() as u32;
+        }
+        if buffers.found.is_empty() {
+            return counts;
+        }
+        for c in &buffers.found {
+            push(c, x, v, w, thickness);
+        }
+    }
+    let state = (start, x, v);
+    counts.stopped = stop_zones(cloth, state, w, thickness, &mut counts.tests, buffers);
+    counts
+}
+
+/// The impact zones' stage of [`prevent_crossings`]: returns the particles
+/// moved with their zone.
+fn stop_zones(
+    cloth: &impl Faces,
+    (start, x, v): (&[Vec3], &mut [Vec3], &mut [Vec3]),
+    w: &[f32],
+    thickness: f32,
+    tests: &mut u32,
+    buffers: &mut CrossingBuffers,
+) -> u32 {
+    let n = x.len();
+    buffers.zone.clear();
+    buffers.zone.extend(0..n as u32);
+    buffers.stopped.clear();
+    buffers.stopped.resize(n, false);
+    let mut stopped = 0;
+    for _ in 0..ZONE_PASSES {
+        *tests += buffers.find(cloth, start, x, thickness);
+        if buffers.found.is_empty() {
+            break;
+        }
+        let mut changed = false;
+        for i in 0..buffers.found.len() {
+            let [a, rest @ ..] = buffers.found[i].particles;
+            for b in rest {
+                let (ra, rb) = (buffers.root(a), buffers.root(b));
+                if ra != rb {
+                    buffers.zone[ra as usize] = rb;
+                    changed = true;
+                }
+            }
+        }
+        // The zones touched in this pass, by their roots.
+        buffers.touched.clear();
+        for i in 0..buffers.found.len() {
+            for p in buffers.found[i].particles {
+                let r = buffers.root(p);
+                buffers.touched.push(r);
+            }
+        }
+        buffers.touched.sort_unstable();
+        buffers.touched.dedup();
+        // Each zone's motion: its held particles' mean, or the
+        // mass-weighted mean of all.
+        buffers.sums.clear();
+        buffers.sums.resize(n, Default::default());
+        for p in 0..n as u32 {
+            let r = buffers.root(p);
+            if buffers.touched.binary_search(&r).is_err() {
+                continue;
+            }
+            let s = &mut buffers.sums[r as usize];
+            let q = p as usize;
+            let moved = wide(x[q] - start[q]);
+            if w[q] > 0.0 {
+                let m = 1.0 / w[q] as f64;
+                s.free += (wide(v[q]) * m, moved * m);
+                s.mass += m;
+            } else {
+                s.held += (wide(v[q]), moved);
+                s.holds += 1;
+            }
+        }
+        for p in 0..n as u32 {
+            let q = p as usize;
+            let r = buffers.root(p);
+            if w[q] == 0.0 || buffers.touched.binary_search(&r).is_err() {
+                continue;
+            }
+            let s = buffers.sums[r as usize];
+            let (velocity, moved) = if s.holds > 0 {
+                (s.held.0 / s.holds as f64, s.held.1 / s.holds as f64)
+            } else {
+                (s.free.0 / s.mass, s.free.1 / s.mass)
+            };
+            if !buffers.stopped[q] {
+                buffers.stopped[q] = true;
+                stopped += 1;
+                changed = true;
+            }
+            x[q] = start[q] + moved.as_vec3();
+            v[q] = velocity.as_vec3();
+        }
+        if !changed {
+            // Only held particles cross: nothing this pass can move.
+            break;
+        }
+    }
+    stopped
+}
+
+/// Momentum and mass-weighted displacement of an impact zone's free
+/// particles, and the summed velocity and displacement of its held ones.
+#[derive(Clone, Copy, Debug, Default)]
+struct ZoneSums {
+    /// Σ m v (kg m/s) and Σ m (x − start) (kg m) over the free particles.
+    free: Pair,
+    /// Σ m over the free particles, kg.
+    mass: f64,
+    /// Σ v (m/s) and Σ (x − start) (m) over the held particles.
+    held: Pair,
+    /// Held particles.
+    holds: u32,
+}
+
+/// A velocity and a displacement, summed together.
+#[derive(Clone, Copy, Debug, Default)]
+struct Pair(DVec3, DVec3);
+
+impl std::ops::AddAssign<(DVec3, DVec3)> for Pair {
+    fn add_assign(&mut self, (a, b): (DVec3, DVec3)) {
+        self.0 += a;
+        self.1 += b;
+    }
+}
+
+impl From<CrossingCounts> for Counts {
+    fn from(c: CrossingCounts) -> Self {
+        Counts {
+            tests: c.tests,
+            contacts: c.crossings,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests;
