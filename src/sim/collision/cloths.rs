@@ -32,7 +32,8 @@
 
 use bevy::math::Vec3;
 
-use super::self_collision::{barycentric, cell_of, key};
+use super::cells::{cell_of, key};
+use super::self_collision::barycentric;
 use super::trimesh::closest_point_on_triangle;
 use crate::sim::integrate::implicit::{Hold, NO_BODY, SolveContact};
 

@@ -8,6 +8,7 @@
 //! [`plugin::collision`](crate::plugin::collision).
 
 pub mod ccd;
+mod cells;
 pub mod cloths;
 pub mod contact;
 pub mod edges;

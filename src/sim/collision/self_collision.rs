@@ -7,6 +7,7 @@
 use bevy::math::Vec3;
 
 use super::ccd::{CrossingBuffers, prevent_crossings, split};
+use super::cells::{cell_of, key};
 use super::contact::Counts;
 use super::trimesh::closest_point_on_triangle;
 use crate::sim::grid::Faces;
@@ -18,17 +19,6 @@ pub struct SelfCollisionBuffers {
     entries: Vec<(u64, u32)>,
     /// The continuous pass's buffers.
     crossings: CrossingBuffers,
-}
-
-pub(super) fn cell_of(p: Vec3, inv_cell: f32) -> [i32; 3] {
-    let c = (p * inv_cell).floor();
-    [c.x as i32, c.y as i32, c.z as i32]
-}
-
-pub(super) fn key([x, y, z]: [i32; 3]) -> u64 {
-    (x as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15)
-        ^ (y as u64).wrapping_mul(0xC2B2_AE3D_27D4_EB4F)
-        ^ (z as u64).wrapping_mul(0x1656_67B1_9E37_79F9)
 }
 
 /// Barycentric weights of point `c` on triangle `[a, b, d]`.

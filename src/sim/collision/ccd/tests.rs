@@ -1,3 +1,4 @@
+use super::exact::sign_changes;
 use super::*;
 use crate::plugin::builder::ClothBuilder;
 use crate::sim::grid::Grid;
