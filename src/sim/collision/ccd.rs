@@ -67,8 +67,8 @@ pub struct CrossingBuffers {
     found: Vec<Crossing>,
     /// Scratch: displacements for the cell size.
     scratch: Vec<f32>,
-    /// The impact zones: union–find parents, particles sent back, the
-    /// zones touched in a pass and their sums.
+    /// The impact zones: union–find parents, particles moved with a zone,
+    /// the zones touched in a pass and their sums.
     zone: Vec<u32>,
     stopped: Vec<bool>,
     touched: Vec<u32>,
@@ -93,7 +93,8 @@ pub struct Crossing {
 }
 
 impl Crossing {
-    /// The separation along the normal of the features at `x`, m.
+    /// The separation along the normal of the features at positions `x`
+    /// (m), or their relative velocity along it for velocities (m/s).
     fn gap(&self, x: &[Vec3]) -> f32 {
         (0..4)
             .map(|i| self.weights[i] * x[self.particles[i] as usize])
@@ -109,7 +110,7 @@ pub struct CrossingCounts {
     pub tests: u32,
     /// Crossings found in the first pass.
     pub crossings: u32,
-    /// Particles sent back to their start by an impact zone.
+    /// Particles moved with an impact zone.
     pub stopped: u32,
 }
 
@@ -374,10 +375,18 @@ pub fn prevent_crossings(
     buffers: &mut CrossingBuffers,
 ) -> CrossingCounts {
     let mut counts = CrossingCounts::default();
-    if x.len() != start.len() || !(thickness.is_finite() && thickness > 0.0) {
+    let n = x.len();
+    if start.len() != n || v.len() != n || w.len() != n {
+        return counts;
+    }
+    if !(thickness.is_finite() && thickness > 0.0) {
         return counts;
     }
     buffers.list_edges(cloth);
+    if buffers.edges.iter().any(|e| e[1] as usize >= n) {
+        // Triangles of another cloth's particles: nothing to keep apart.
+        return counts;
+    }
     for round in 0..PUSH_ROUNDS {
         counts.tests += buffers.find(cloth, start, x, thickness);
         if round == 0 {

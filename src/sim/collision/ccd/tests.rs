@@ -272,6 +272,23 @@ fn a_non_finite_particle_is_left_to_the_guard() {
     assert_eq!(counts.crossings, 0);
     let counts = prevent_crossings(&grid, &start, &mut x, &mut v, &w, f32::NAN, &mut buffers);
     assert_eq!(counts, CrossingCounts::default());
+    // Slices that do not match the cloth or each other: nothing done.
+    let (grid, start, mut x, w) = folded(0.6);
+    let (short, mut fewer) = (&start[..40], x[..40].to_vec());
+    let mut v = vec![Vec3::ZERO; 40];
+    let counts = prevent_crossings(
+        &grid,
+        short,
+        &mut fewer,
+        &mut v,
+        &w[..40],
+        0.01,
+        &mut buffers,
+    );
+    assert_eq!(counts, CrossingCounts::default());
+    let mut v = vec![Vec3::ZERO; 81];
+    let counts = prevent_crossings(&grid, &start, &mut x, &mut v, &w[..3], 0.01, &mut buffers);
+    assert_eq!(counts, CrossingCounts::default());
 }
 
 #[test]
