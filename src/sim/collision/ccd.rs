@@ -21,7 +21,7 @@
 //!    motion when the zone holds one). Repeated until nothing crosses, as
 //!    zones merge: a zone that moves as one cannot cross itself, so the step
 //!    ends without a crossing if it began without one (and its held
-//!    particles move alike), within [`ZONE_PASSES`] passes.
+//!    particles move alike), within 16 passes.
 
 use bevy::math::{DVec3, Vec3};
 

@@ -38,7 +38,7 @@ pub(super) fn barycentric(c: Vec3, [a, b, d]: [Vec3; 3]) -> [f32; 3] {
 /// Keeps every particle of `cloth` at least `thickness` m from every
 /// triangle it is not a corner of. Corrections are split by inverse mass
 /// between the particle and the triangle's corners (momentum is conserved;
-/// no particle moves farther than the correction, [`split`]),
+/// no particle moves farther than the correction),
 /// and their approaching normal velocity is removed. `x` in m, `v` in m/s.
 ///
 /// A particle within `thickness` of a triangle's inside is put back on the
