@@ -52,6 +52,8 @@ pub struct CrossingBuffers {
     edges: Vec<[u32; 2]>,
     /// Face count and a hash of the faces the edges were listed for.
     edges_for: (usize, u64),
+    /// The largest particle index of the edges, or `None` without edges.
+    largest: Option<u32>,
     /// `(cell key, triangle)` of the triangles' swept boxes, sorted.
     triangles: Vec<(u64, u32)>,
     /// `(cell key, edge)` of the edges' swept boxes, sorted.
@@ -211,6 +213,7 @@ impl CrossingBuffers {
         }
         self.edges.sort_unstable();
         self.edges.dedup();
+        self.largest = self.edges.iter().map(|e| e[1]).max();
         self.edges_for = tag;
     }
 
@@ -383,7 +386,7 @@ pub fn prevent_crossings(
         return counts;
     }
     buffers.list_edges(cloth);
-    if buffers.edges.iter().any(|e| e[1] as usize >= n) {
+    if buffers.largest.is_some_and(|p| p as usize >= n) {
         // Triangles of another cloth's particles: nothing to keep apart.
         return counts;
     }
