@@ -115,7 +115,8 @@ pub struct ClothToClothScratch {
     pub(crate) near: (Option<usize>, Vec<(usize, Pair)>),
     /// The passes' lists.
     pub(crate) buffers: ObstacleBuffers,
-    /// The sum of the normals (m) of the colliders each particle touches.
+    /// The sum of the unit normals of the contacts listed for each particle
+    /// in the substep: the colliders', then the other cloths' (the nearest).
     pub(crate) support: Vec<Vec3>,
     /// The contacts with other cloths of the last prediction, one a
     /// particle (the nearest), and the friction coefficient of each.
@@ -357,12 +358,15 @@ impl ClothContacts<'_> {
             (a.0.particle.cmp(&b.0.particle)).then(a.0.gap.total_cmp(&b.0.gap))
         });
         held.dedup_by_key(|c| c.0.particle);
+        for (c, _) in held.iter() {
+            self.scratch.support[c.particle as usize] += c.normal;
+        }
         self.contacts += (out.len() - before) as u32;
     }
 
-    /// After a substep: puts back the particles that passed through a
-    /// neighbour (`start` → `x`, m; `v`, m/s; `w`, 1/kg; `held` by the
-    /// solve, or empty).
+    /// After a substep: puts back the particles and edges that passed
+    /// through a neighbour (`start` → `x`, m; `v`, m/s; `w`, 1/kg; `held` by
+    /// the solve, or empty).
     pub(crate) fn resolve(
         &mut self,
         sub: crate::sim::step::Substep,
@@ -370,12 +374,21 @@ impl ClothContacts<'_> {
         w: &[f32],
         held: &[crate::sim::integrate::implicit::Hold],
     ) {
-        let (Some(_), near) = &self.scratch.near else {
+        let (Some(own), near) = &self.scratch.near else {
             return;
         };
         let held_on = &self.scratch.held;
         crate::sim::collision::cloths::rub(held_on, v, held, (self.gravity, sub.dt));
+        let faces = &self.obstacles.entries[*own].obstacle.faces;
+        // What each particle lies on: its contacts' normals, colliders' and
+        // other cloths' (none without the implicit solve).
+        let support = if held.len() == x.len() && self.scratch.support.len() == x.len() {
+            &self.scratch.support[..]
+        } else {
+            &[]
+        };
         for &(k, pair) in near.iter() {
+            let other = &self.obstacles.entries[k].obstacle;
             self.contacts += crate::sim::collision::cloths::undo_crossings(
                 start,
                 x,
@@ -383,7 +396,19 @@ impl ClothContacts<'_> {
                 w,
                 held,
                 Self::times(sub),
-                &self.obstacles.entries[k].obstacle,
+                other,
+                pair,
+                &mut self.scratch.buffers,
+            );
+            self.contacts += crate::sim::collision::cloths::undo_edge_crossings(
+                faces,
+                start,
+                x,
+                v,
+                w,
+                (held, support),
+                Self::times(sub),
+                other,
                 pair,
                 &mut self.scratch.buffers,
             );

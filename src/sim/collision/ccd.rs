@@ -48,12 +48,8 @@ const MAX_SPAN: i32 = 8;
 /// Reusable buffers of [`prevent_crossings`] (no allocation once warm).
 #[derive(Clone, Debug, Default)]
 pub struct CrossingBuffers {
-    /// The cloth's triangle edges, each once, as `[low, high]` particles.
-    edges: Vec<[u32; 2]>,
-    /// Face count and a hash of the faces the edges were listed for.
-    edges_for: (usize, u64),
-    /// The largest particle index of the edges, or `None` without edges.
-    largest: Option<u32>,
+    /// The cloth's triangle edges.
+    edges: EdgeList,
     /// `(cell key, triangle)` of the triangles' swept boxes, sorted.
     triangles: Vec<(u64, u32)>,
     /// `(cell key, edge)` of the edges' swept boxes, sorted.
@@ -114,6 +110,49 @@ pub struct CrossingCounts {
     pub crossings: u32,
     /// Particles moved with an impact zone.
     pub stopped: u32,
+}
+
+/// The edges of a set of triangles, each once, listed again only when the
+/// triangles change (a tear).
+#[derive(Clone, Debug, Default)]
+pub(super) struct EdgeList {
+    /// The edges as `[low, high]` particles, sorted.
+    pub(super) edges: Vec<[u32; 2]>,
+    /// Face count and a hash of the faces the edges were listed for.
+    tag: (usize, u64),
+    /// The largest particle index of the edges, or `None` without edges.
+    pub(super) largest: Option<u32>,
+}
+
+impl EdgeList {
+    /// Lists the edges of the `count` triangles `faces()` gives, unless
+    /// they are the ones listed last.
+    pub(super) fn update<I: Iterator<Item = [u32; 3]>>(
+        &mut self,
+        faces: impl Fn() -> I,
+        count: usize,
+    ) {
+        let hash = faces().fold(0u64, |h, [a, b, c]| {
+            let face = (a as u64) | (b as u64) << 21 | (c as u64) << 42;
+            (h ^ face)
+                .wrapping_mul(0x9E37_79B9_7F4A_7C15)
+                .rotate_left(29)
+        });
+        let tag = (count, hash);
+        if self.tag == tag && !self.edges.is_empty() {
+            return;
+        }
+        self.edges.clear();
+        for [a, b, c] in faces() {
+            for (p, q) in [(a, b), (b, c), (c, a)] {
+                self.edges.push([p.min(q), p.max(q)]);
+            }
+        }
+        self.edges.sort_unstable();
+        self.edges.dedup();
+        self.largest = self.edges.iter().map(|e| e[1]).max();
+        self.tag = tag;
+    }
 }
 
 fn swept(a: Vec3, b: Vec3) -> (Vec3, Vec3) {
@@ -193,30 +232,6 @@ fn candidates(bx: (Vec3, Vec3), inv: f32, (cells, boxes, big): Table, mut each: 
 }
 
 impl CrossingBuffers {
-    /// Lists the cloth's edges, again whenever its triangles change (a tear).
-    fn list_edges(&mut self, cloth: &impl Faces) {
-        let hash = cloth.faces().fold(0u64, |h, [a, b, c]| {
-            let face = (a as u64) | (b as u64) << 21 | (c as u64) << 42;
-            (h ^ face)
-                .wrapping_mul(0x9E37_79B9_7F4A_7C15)
-                .rotate_left(29)
-        });
-        let tag = (cloth.face_count(), hash);
-        if self.edges_for == tag && !self.edges.is_empty() {
-            return;
-        }
-        self.edges.clear();
-        for [a, b, c] in cloth.faces() {
-            for (p, q) in [(a, b), (b, c), (c, a)] {
-                self.edges.push([p.min(q), p.max(q)]);
-            }
-        }
-        self.edges.sort_unstable();
-        self.edges.dedup();
-        self.largest = self.edges.iter().map(|e| e[1]).max();
-        self.edges_for = tag;
-    }
-
     /// Lists every crossing from `start` to `x` into `found`; returns the
     /// pairs tested.
     fn find(&mut self, cloth: &impl Faces, start: &[Vec3], x: &[Vec3], thickness: f32) -> u32 {
@@ -259,6 +274,7 @@ impl CrossingBuffers {
         self.edge_boxes.clear();
         self.edge_boxes.extend(
             self.edges
+                .edges
                 .iter()
                 .map(|&[a, b]| union(pb[a as usize], pb[b as usize])),
         );
@@ -299,14 +315,14 @@ impl CrossingBuffers {
                 }
             });
         }
-        for (e, &edge) in self.edges.iter().enumerate() {
+        for (e, &edge) in self.edges.edges.iter().enumerate() {
             let table = (
                 &self.edge_cells[..],
                 &self.edge_boxes[..],
                 &self.big_edges[..],
             );
             candidates(self.edge_boxes[e], inv, table, |f| {
-                let other = self.edges[f as usize];
+                let other = self.edges.edges[f as usize];
                 if f as usize <= e || other.contains(&edge[0]) || other.contains(&edge[1]) {
                     return;
                 }
@@ -385,8 +401,8 @@ pub fn prevent_crossings(
     if !(thickness.is_finite() && thickness > 0.0) {
         return counts;
     }
-    buffers.list_edges(cloth);
-    if buffers.largest.is_some_and(|p| p as usize >= n) {
+    buffers.edges.update(|| cloth.faces(), cloth.face_count());
+    if buffers.edges.largest.is_some_and(|p| p as usize >= n) {
         // Triangles of another cloth's particles: nothing to keep apart.
         return counts;
     }

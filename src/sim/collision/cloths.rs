@@ -26,12 +26,18 @@
 //!   is put back on its side at the thickness and takes the triangle's
 //!   normal velocity ([`undo_crossings`]); a step without the implicit
 //!   solve also pushes particles within the thickness out there.
+//! - **Edges.** Then an edge of this cloth that passed through an edge of
+//!   the other over the substep (found exactly, as in
+//!   [`ccd`](super::ccd)) is put back on its side at the thickness
+//!   ([`undo_edge_crossings`]): two ribbons crossing, or a hem over a hem,
+//!   meet edge to edge with no particle near a triangle.
 //!
 //! A spatial hash over each obstacle's triangles, swept over the step,
 //! finds the candidates.
 
 use bevy::math::Vec3;
 
+use super::ccd::EdgeList;
 use super::cells::{cell_of, key};
 use super::self_collision::barycentric;
 use super::trimesh::closest_point_on_triangle;
@@ -49,8 +55,14 @@ const TOUCH: f32 = 1e-4;
 /// its own cell.
 const SLACK: f32 = 0.005;
 
-/// Most hash cells a side a triangle's sweep is entered in.
+/// Most hash cells a side a triangle's sweep is entered in (own triangles,
+/// against the other cloth's particles); an obstacle's triangle whose sweep
+/// spans more is kept in a list every query takes.
 const MAX_SPAN: i32 = 4;
+
+/// Most hash cells a query of an obstacle visits; a larger box (a particle
+/// or edge flicked across the step) takes every triangle.
+const MAX_QUERY_CELLS: i64 = 512;
 
 /// A corner of a triangle takes a contact at a point of the triangle when
 /// its barycentric weight there is at least this (dimensionless), or it
@@ -84,6 +96,8 @@ pub struct ClothObstacle {
     cell: f32,
     /// `(cell key, triangle)`, sorted by key.
     entries: Vec<(u64, u32)>,
+    /// Triangles whose sweep spans more than [`MAX_SPAN`] cells a side.
+    big: Vec<u32>,
 }
 
 /// A colliding pair as one of its cloths sees it.
@@ -160,12 +174,18 @@ impl ClothObstacle {
         this.cell = cell.max(2.0 * pad).max(1e-4);
         let inv_cell = 1.0 / this.cell;
         this.entries.clear();
+        this.big.clear();
         for (t, tri) in this.faces.iter().enumerate() {
             let (mut lo, mut hi) = (Vec3::MAX, Vec3::MIN);
             for &q in tri {
                 let (s, e) = (x[q as usize], x[q as usize] + v[q as usize] * dt);
                 lo = lo.min(s).min(e);
                 hi = hi.max(s).max(e);
+            }
+            let (a, b) = (cell_of(lo - pad, inv_cell), cell_of(hi + pad, inv_cell));
+            if (0..3).any(|i| b[i].saturating_sub(a[i]) >= MAX_SPAN) {
+                this.big.push(t as u32);
+                continue;
             }
             let entries = &mut this.entries;
             cells(lo - pad, hi + pad, inv_cell, |k| {
@@ -191,21 +211,38 @@ impl ClothObstacle {
             return self.gather(p - reach, p + reach, out);
         }
         single_cell(&self.entries, key(cell_of(p, 1.0 / self.cell)), out);
+        out.extend_from_slice(&self.big);
     }
 
-    /// The triangles hashed in the cells of the box `lo..hi` (m), each
-    /// once, into `out`.
+    /// The triangles that may reach into the box `lo..hi` (m), each once,
+    /// into `out`: those hashed in its cells and the fast ones, or every
+    /// triangle for a box of more than [`MAX_QUERY_CELLS`] cells.
     fn gather(&self, lo: Vec3, hi: Vec3, out: &mut Vec<u32>) {
         out.clear();
-        cells(lo, hi, 1.0 / self.cell, |k| {
-            let from = self.entries.partition_point(|e| e.0 < k);
-            out.extend(
-                self.entries[from..]
-                    .iter()
-                    .take_while(|e| e.0 == k)
-                    .map(|e| e.1),
-            );
-        });
+        let inv_cell = 1.0 / self.cell;
+        let (a, b) = (cell_of(lo, inv_cell), cell_of(hi, inv_cell));
+        let count = (0..3)
+            .map(|i| (b[i] as i64 - a[i] as i64 + 1).max(0))
+            .product::<i64>();
+        if !(lo.is_finite() && hi.is_finite()) || count > MAX_QUERY_CELLS {
+            out.extend(0..self.faces.len() as u32);
+            return;
+        }
+        for i in a[0]..=b[0] {
+            for j in a[1]..=b[1] {
+                for k in a[2]..=b[2] {
+                    let k = key([i, j, k]);
+                    let from = self.entries.partition_point(|e| e.0 < k);
+                    out.extend(
+                        self.entries[from..]
+                            .iter()
+                            .take_while(|e| e.0 == k)
+                            .map(|e| e.1),
+                    );
+                }
+            }
+        }
+        out.extend_from_slice(&self.big);
         out.sort_unstable();
         out.dedup();
     }
@@ -227,6 +264,10 @@ pub struct ObstacleBuffers {
     candidates: Vec<u32>,
     /// Own triangles hashed: `(cell key, triangle)` sorted.
     own: Vec<(u64, u32)>,
+    /// Own triangles' edges.
+    own_edges: EdgeList,
+    /// The other cloth's edges near one of this cloth's.
+    their_edges: Vec<[u32; 2]>,
 }
 
 /// The unit normal of `[a, b, c]` (zero for a degenerate one).
@@ -587,6 +628,9 @@ pub fn undo_crossings(
     }
     moved
 }
+
+mod edge_pass;
+pub use edge_pass::undo_edge_crossings;
 
 #[cfg(test)]
 mod tests;

@@ -213,7 +213,7 @@ fn impact_zones_undo_what_pushes_leave_crossed() {
     let (grid, start, mut x, w) = folded(0.6);
     let mut v = vec![Vec3::ZERO; 81];
     let mut buffers = CrossingBuffers::default();
-    buffers.list_edges(&grid);
+    buffers.edges.update(|| grid.faces(), grid.face_count());
     let mut tests = 0;
     let stopped = stop_zones(
         &grid,

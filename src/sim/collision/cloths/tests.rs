@@ -257,3 +257,152 @@ fn friction_slows_a_held_sliding_particle_by_its_load_and_never_turns_it() {
     );
     assert_eq!(v[0].x, 1.0);
 }
+
+/// A strip 2 cm wide along z at height 0, at rest, taken for a 1/60 s step.
+fn strip() -> ClothObstacle {
+    let x = [
+        Vec3::new(-0.01, 0.0, -0.5),
+        Vec3::new(0.01, 0.0, -0.5),
+        Vec3::new(0.01, 0.0, 0.5),
+        Vec3::new(-0.01, 0.0, 0.5),
+    ];
+    let mut obstacle = ClothObstacle::default();
+    ClothObstacle::take(
+        [[0, 1, 2], [0, 2, 3]].into_iter(),
+        (&x, &[Vec3::ZERO; 4], &[1.0; 4]),
+        (1.0 / 60.0, 0.01, 1.0),
+        &mut obstacle,
+    )
+    .unwrap();
+    obstacle
+}
+
+#[test]
+fn edges_that_passed_through_the_other_cloth_s_edges_are_put_back_on_their_side() {
+    let other = strip();
+    // A triangle whose corners all lie off the strip, two of its edges
+    // across it, falling 5 cm through it in one step.
+    let faces = [[0, 1, 2]];
+    let start = [
+        Vec3::new(-0.3, 0.02, 0.0),
+        Vec3::new(0.3, 0.02, 0.0),
+        Vec3::new(0.3, 0.02, 0.3),
+    ];
+    let end = start.map(|p| p - Vec3::new(0.0, 0.05, 0.0));
+    let dt = 1.0 / 60.0;
+    let (mut x, mut v) = (end, [Vec3::new(0.2, -3.0, 0.0); 3]);
+    let mut buffers = ObstacleBuffers::default();
+    let w = [1.0; 3];
+    let points = undo_crossings(
+        &start,
+        &mut x,
+        &mut v,
+        &w,
+        &[],
+        (0.0, dt),
+        &other,
+        PAIR,
+        &mut buffers,
+    );
+    assert_eq!(points, 0, "no particle came near the strip");
+    assert_eq!(x, end);
+    let edges = undo_edge_crossings(
+        &faces,
+        &start,
+        &mut x,
+        &mut v,
+        &w,
+        (&[], &[]),
+        (0.0, dt),
+        &other,
+        PAIR,
+        &mut buffers,
+    );
+    assert_eq!(edges, 2, "{x:?}");
+    // Where each edge crosses x = 0 it lies above the strip, at least the
+    // thickness up, and no longer falls.
+    for (a, b) in [(0, 1), (0, 2)] {
+        let f = (0.0 - x[a].x) / (x[b].x - x[a].x);
+        let (at, speed) = (x[a].lerp(x[b], f), v[a].lerp(v[b], f));
+        assert!(at.y >= PAIR.thickness - 1e-5, "edge {a}–{b} at {at}");
+        // Stopped where it met the strip's edge, 1 cm off x = 0.
+        assert!(speed.y >= -0.1, "edge {a}–{b} still falls at {speed}");
+    }
+    assert!(x[1].y >= PAIR.thickness - 1e-5 && x[1].y < 0.02, "{x:?}");
+    // Edge 0–1 met the strip level: its slide along x is kept.
+    assert!((v[1].x - 0.2).abs() < 1e-6, "{v:?}");
+    // The same fall, stopped short of the strip, or with every particle
+    // pinned, or with a NaN: nothing moves.
+    for (scale, w, nan) in [(0.3, 1.0, false), (1.0, 0.0, false), (1.0, 1.0, true)] {
+        let mut x = start.map(|p| p - Vec3::new(0.0, 0.05 * scale, 0.0));
+        if nan {
+            x[2].y = f32::NAN;
+        }
+        let before = x;
+        let moved = undo_edge_crossings(
+            &faces,
+            &start,
+            &mut x,
+            &mut [Vec3::ZERO; 3],
+            &[w; 3],
+            (&[], &[]),
+            (0.0, dt),
+            &other,
+            PAIR,
+            &mut buffers,
+        );
+        let same = x
+            .iter()
+            .zip(&before)
+            .all(|(a, b)| a == b || a.is_nan() && b.is_nan());
+        // With a NaN corner the edge 0–1 still crosses and is put back.
+        let expected = if nan { 1 } else { 0 };
+        assert_eq!(moved, expected, "{scale} {w} {nan}: {x:?}");
+        assert!(same || nan, "{x:?}");
+        assert!(x[0].is_finite() && x[1].is_finite(), "{x:?}");
+    }
+    // With its corners held against a ceiling (the collider's normal
+    // down), the triangle is not pushed up into it; lying on a floor, it is
+    // pushed up off it.
+    let mut held_x = end;
+    let moved = undo_edge_crossings(
+        &faces,
+        &start,
+        &mut held_x,
+        &mut [Vec3::ZERO; 3],
+        &w,
+        (&[Hold::Stick; 3], &[Vec3::NEG_Y; 3]),
+        (0.0, dt),
+        &other,
+        PAIR,
+        &mut buffers,
+    );
+    assert_eq!((moved, held_x), (0, end));
+    let moved = undo_edge_crossings(
+        &faces,
+        &start,
+        &mut held_x,
+        &mut [Vec3::ZERO; 3],
+        &w,
+        (&[Hold::Slide; 3], &[Vec3::Y; 3]),
+        (0.0, dt),
+        &other,
+        PAIR,
+        &mut buffers,
+    );
+    assert_eq!(moved, 2);
+    // Mismatched slices do nothing.
+    let moved = undo_edge_crossings(
+        &faces,
+        &start[..2],
+        &mut x,
+        &mut v,
+        &w,
+        (&[], &[]),
+        (0.0, dt),
+        &other,
+        PAIR,
+        &mut buffers,
+    );
+    assert_eq!(moved, 0);
+}
