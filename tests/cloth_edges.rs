@@ -120,3 +120,69 @@ fn a_ribbon_thrown_across_a_ribbon_stays_above_it() {
         assert!(lowest < -0.01, "its middle stayed {lowest} m above");
     }
 }
+
+/// The ribbon along x of [`ribbon_thrown_across`], free, dropped from 2 cm
+/// across the pinned one: it meets it edge to edge and hangs over it like a
+/// towel over a bar. Returns, over `frames` frames, the smallest distance
+/// between their edges (m), and at the end the height of its highest
+/// particle over the lower ribbon's middle (m) and how far its middle slid
+/// along its length (m).
+fn ribbon_dropped_across(frames: u32) -> (f32, f32, f32) {
+    let mut app = app();
+    let ends = |_: u32, row: u32, _: Vec2| row == 0 || row == 9;
+    let lower = ribbon(10)
+        .position(Vec3::new(0.0, 1.0, 0.0))
+        .pin_where(ends)
+        .build()
+        .unwrap();
+    let upper = ribbon(10)
+        .position(Vec3::new(0.0, 1.02, 0.0))
+        .rotation(Quat::from_rotation_y(std::f32::consts::FRAC_PI_2))
+        .build()
+        .unwrap();
+    let contact = |layer| ClothToClothCollision { layer, ..default() };
+    let a = app.world_mut().spawn((lower, contact(0))).id();
+    let b = app.world_mut().spawn((upper, contact(1))).id();
+    let (ea, eb) = (edges(&app, a), edges(&app, b));
+    let mut least = f32::MAX;
+    for _ in 0..frames {
+        app.update();
+        let (xa, xb) = (&particles(&app, a).positions, &particles(&app, b).positions);
+        assert!(xa.iter().chain(xb).all(|p| p.is_finite()));
+        for &[p, q] in &ea {
+            let s = (xa[p as usize], xa[q as usize]);
+            for &[r, t] in &eb {
+                let u = (xb[r as usize], xb[t as usize]);
+                if s.0.distance(u.0) < 0.5 {
+                    least = least.min(segment_distance(s, u));
+                }
+            }
+        }
+    }
+    let (xa, xb) = (&particles(&app, a).positions, &particles(&app, b).positions);
+    let highest = xb.iter().map(|p| p.y).fold(f32::MIN, f32::max);
+    let slid = xb[4 * 3 + 1].lerp(xb[5 * 3 + 1], 0.5).x - xa[4 * 3 + 1].lerp(xa[5 * 3 + 1], 0.5).x;
+    (
+        least,
+        highest - xa[4 * 3 + 1].lerp(xa[5 * 3 + 1], 0.5).y,
+        slid,
+    )
+}
+
+#[test]
+fn a_ribbon_dropped_across_a_ribbon_hangs_on_it() {
+    let thickness = ClothToClothCollision::default().thickness;
+    let (least, highest, slid) = ribbon_dropped_across(600);
+    eprintln!(
+        "ribbon dropped across: closest edges {least:.4} m; after 10 s its top {highest:.4} m over the other's middle, its middle slid {slid:.4} m"
+    );
+    assert!(
+        least >= thickness / 2.0,
+        "the ribbons' edges came {least} m close"
+    );
+    assert!(
+        highest > 0.0,
+        "it fell off or through: its top {highest} m over the other"
+    );
+    assert!(slid.abs() < 0.05, "it slid {slid} m along its length");
+}

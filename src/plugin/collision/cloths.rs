@@ -336,6 +336,15 @@ impl ClothContacts<'_> {
                 &mut self.scratch.buffers,
                 out,
             );
+            crate::sim::collision::cloths::predict_edge_contacts(
+                &me.obstacle.faces,
+                (x, v, w),
+                (from, sub.dt),
+                &self.obstacles.entries[k].obstacle,
+                pair,
+                &mut self.scratch.buffers,
+                out,
+            );
             // A particle lying on a collider is not pressed into it by
             // another cloth: that cloth rests on this one instead (its own
             // particles are held off this one's triangles in its step).

@@ -26,11 +26,13 @@
 //!   is put back on its side at the thickness and takes the triangle's
 //!   normal velocity ([`undo_crossings`]); a step without the implicit
 //!   solve also pushes particles within the thickness out there.
-//! - **Edges.** Then an edge of this cloth that passed through an edge of
-//!   the other over the substep (found exactly, as in
+//! - **Edges.** Two ribbons crossing, or a hem over a hem, meet edge to
+//!   edge with no particle near a triangle: an edge of this cloth near an
+//!   edge of the other is held off it by the solve through its ends
+//!   ([`predict_edge_contacts`]), and one that passed through an edge of
+//!   the other over the substep all the same (found exactly, as in
 //!   [`ccd`](super::ccd)) is put back on its side at the thickness
-//!   ([`undo_edge_crossings`]): two ribbons crossing, or a hem over a hem,
-//!   meet edge to edge with no particle near a triangle.
+//!   ([`undo_edge_crossings`]).
 //!
 //! A spatial hash over each obstacle's triangles, swept over the step,
 //! finds the candidates.
@@ -630,7 +632,7 @@ pub fn undo_crossings(
 }
 
 mod edge_pass;
-pub use edge_pass::undo_edge_crossings;
+pub use edge_pass::{EDGE_THICKNESS, predict_edge_contacts, undo_edge_crossings};
 
 #[cfg(test)]
 mod tests;

@@ -440,7 +440,10 @@ fn mesh_nearest(mesh: &TriMesh, a: Vec3, b: Vec3, reach: f32) -> Option<(f32, f3
 
 /// The nearest points of segments `p0 → p1` and `q0 → q1` (m): the
 /// fraction along the first, its point, and the second's point.
-fn segments_nearest((p0, p1): (Vec3, Vec3), (q0, q1): (Vec3, Vec3)) -> (f32, Vec3, Vec3) {
+pub(crate) fn segments_nearest(
+    (p0, p1): (Vec3, Vec3),
+    (q0, q1): (Vec3, Vec3),
+) -> (f32, Vec3, Vec3) {
     let (d1, d2, r) = (p1 - p0, q1 - q0, p0 - q0);
     let (a, e, f) = (d1.length_squared(), d2.length_squared(), d2.dot(r));
     let tiny = 1e-12;

@@ -1,13 +1,164 @@
-//! Edges of one cloth against edges of another, over a substep: a link of
-//! this cloth that passed through a link of the other (two ribbons crossing,
-//! a hem sliding over a hem) is put back on the side it came from, even
-//! where no particle of either came near a triangle of the other.
+//! Edges of one cloth against edges of another, where no particle of
+//! either comes near a triangle of the other (two ribbons crossing, a towel
+//! over a ribbon, a hem sliding over a hem):
+//!
+//! - **Held in the solve.** An edge of this cloth whose nearest point to an
+//!   edge of the other lies between the ends of both, within
+//!   the pair's thickness, or approaching [`EDGE_THICKNESS`] of it within
+//!   the substep, is listed as an *edge contact* on each of its free ends
+//!   ([`SolveContact::edge`]): the normal from the other edge's nearest
+//!   point to this one's, that point's gap and the other edge's velocity
+//!   there. The solve holds each end from moving along the normal into the
+//!   other edge by more than the gap, so the edge's point stays off it;
+//!   friction acts after the solve, as on the particles' contacts
+//!   ([`rub`](super::rub)). Edges of two sheets lying on each other are
+//!   the thickness apart: a quarter of it from their edge contacts, which
+//!   hold nothing unless pressed closer ([`predict_edge_contacts`]).
+//! - **Put back.** An edge that passed through an edge of the other over a
+//!   substep all the same is put back on the side it came from
+//!   ([`undo_edge_crossings`]).
 
 use bevy::math::Vec3;
 
-use super::{ClothObstacle, ObstacleBuffers, Pair};
+use super::{CLOTH_SOURCE, ClothObstacle, ObstacleBuffers, Pair, TOUCH};
 use crate::sim::collision::ccd::{Crossing, edge_edge};
-use crate::sim::integrate::implicit::Hold;
+use crate::sim::collision::edges::segments_nearest;
+use crate::sim::integrate::implicit::{Hold, NO_BODY, SolveContact};
+
+/// The fraction of the pair's thickness (dimensionless) an edge keeps from
+/// another cloth's edge in the solve: two sheets lying on each other, their
+/// particles the thickness off the other's triangles, have their edges the
+/// thickness apart too, a quarter of it short of their edge contacts.
+pub const EDGE_THICKNESS: f32 = 0.75;
+
+impl ClothObstacle {
+    /// The edges of its triangles that may reach into the box `lo..hi`
+    /// (m), each once, into `out` (`candidates`: scratch for the
+    /// triangles).
+    fn edges_near(
+        &self,
+        (lo, hi): (Vec3, Vec3),
+        candidates: &mut Vec<u32>,
+        out: &mut Vec<[u32; 2]>,
+    ) {
+        self.gather(lo, hi, candidates);
+        out.clear();
+        for &t in candidates.iter() {
+            let [p, q, r] = self.faces[t as usize];
+            for (i, j) in [(p, q), (q, r), (r, p)] {
+                out.push([i.min(j), i.max(j)]);
+            }
+        }
+        out.sort_unstable();
+        out.dedup();
+    }
+}
+
+/// Adds to `out` the edge contacts ([module docs](self)) that hold the
+/// edges of this cloth's triangles (`faces`; positions `x` m, velocities
+/// `v` m/s, inverse masses `w` 1/kg, at `time` s into the fixed step) off
+/// `other`'s edges over a substep of `dt` s: for each edge, its nearest
+/// point to the other's edges that lies between the ends of both, within
+/// the pair's thickness, or approaching and reaching [`EDGE_THICKNESS`] of
+/// it within the substep; one contact on each free end, with that point's
+/// normal, gap (m) and the other edge's velocity there (m/s).
+/// Where the nearest point is an end of either edge, the particle–triangle
+/// contacts hold it.
+#[expect(
+    clippy::too_many_arguments,
+    reason = "a plain function over the cloth's slices"
+)]
+pub fn predict_edge_contacts(
+    faces: &[[u32; 3]],
+    (x, v, w): (&[Vec3], &[Vec3], &[f32]),
+    (time, dt): (f32, f32),
+    other: &ClothObstacle,
+    pair: Pair,
+    buffers: &mut ObstacleBuffers,
+    out: &mut Vec<SolveContact>,
+) {
+    let h = EDGE_THICKNESS * pair.thickness;
+    let n = x.len();
+    if !(h.is_finite() && h > 0.0 && dt > 0.0) || v.len() != n || w.len() != n {
+        return;
+    }
+    buffers
+        .own_edges
+        .update(|| faces.iter().copied(), faces.len());
+    for &[a, b] in &buffers.own_edges.edges {
+        let (a, b) = (a as usize, b as usize);
+        if a >= n || b >= n || w[a] + w[b] == 0.0 {
+            continue;
+        }
+        let ends = [x[a], x[b], v[a], v[b]];
+        if !ends.iter().all(|p| p.is_finite()) {
+            continue;
+        }
+        let reach = h + TOUCH + (v[a].length().max(v[b].length()) + other.speed) * dt;
+        let (lo, hi) = (x[a].min(x[b]) - reach, x[a].max(x[b]) + reach);
+        if !other.overlaps(lo, hi) {
+            continue;
+        }
+        let (candidates, theirs) = (&mut buffers.candidates, &mut buffers.their_edges);
+        other.edges_near((lo, hi), candidates, theirs);
+        let mut best: Option<(f32, Vec3, Vec3)> = None;
+        for &[c, d] in theirs.iter() {
+            let (qc, qd) = (other.at(c, time), other.at(d, time));
+            if !(qc.min(qd).cmple(hi).all() && lo.cmple(qc.max(qd)).all()) {
+                continue;
+            }
+            let (s, p, q) = segments_nearest((x[a], x[b]), (qc, qd));
+            let along = qd - qc;
+            let u = (q - qc).dot(along) / along.length_squared().max(1e-12);
+            if !(s > 0.0 && s < 1.0 && u > 1e-4 && u < 1.0 - 1e-4) {
+                continue;
+            }
+            let off = p - q;
+            let distance = off.length();
+            if distance <= 1e-7 {
+                // Touching exactly: the crossing pass decides its side.
+                continue;
+            }
+            let normal = off / distance;
+            let gap = distance - h;
+            if gap > reach - h {
+                continue;
+            }
+            // Within the pair's thickness it is listed moving apart or not:
+            // the links of a cloth hanging over the other edge can pull one
+            // rising off it back onto it within the substep, and the solve
+            // lets go of a contact its forces carry clear. Farther, only
+            // while it approaches.
+            let (vc, vd) = (other.v[c as usize], other.v[d as usize]);
+            let vs = vc.lerp(vd, u);
+            let approach = dt * (v[a].lerp(v[b], s) - vs).dot(normal);
+            if distance > pair.thickness + TOUCH && gap + approach >= 0.0 {
+                continue;
+            }
+            if best.is_none_or(|(g, _, _)| gap < g) {
+                best = Some((gap, normal, vs));
+            }
+        }
+        let Some((gap, normal, velocity)) = best else {
+            continue;
+        };
+        for end in [a, b] {
+            if w[end] == 0.0 {
+                continue;
+            }
+            out.push(SolveContact {
+                particle: end as u32,
+                normal,
+                gap,
+                velocity,
+                friction: 0.0,
+                source: CLOTH_SOURCE,
+                body: NO_BODY,
+                edge: true,
+            });
+        }
+    }
+}
 
 /// After a substep from `from` to `to` s into the fixed step: puts each
 /// edge of this cloth's triangles (`faces`; `start` → `x`,
@@ -69,16 +220,8 @@ pub fn undo_edge_crossings(
         if !other.overlaps(lo - h, hi + h) {
             continue;
         }
-        other.gather(lo - h, hi + h, &mut buffers.candidates);
-        buffers.their_edges.clear();
-        for &t in &buffers.candidates {
-            let [p, q, r] = other.faces[t as usize];
-            for (i, j) in [(p, q), (q, r), (r, p)] {
-                buffers.their_edges.push([i.min(j), i.max(j)]);
-            }
-        }
-        buffers.their_edges.sort_unstable();
-        buffers.their_edges.dedup();
+        let (candidates, theirs) = (&mut buffers.candidates, &mut buffers.their_edges);
+        other.edges_near((lo - h, hi + h), candidates, theirs);
         let mut deepest: Option<(Crossing, [Vec3; 4], f32)> = None;
         for &[c, d] in &buffers.their_edges {
             let begin = [start[a], start[b], other.at(c, from), other.at(d, from)];

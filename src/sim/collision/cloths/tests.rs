@@ -406,3 +406,106 @@ fn edges_that_passed_through_the_other_cloth_s_edges_are_put_back_on_their_side(
     );
     assert_eq!(moved, 0);
 }
+
+/// The edge contacts of the triangle `[0, 1, 2]` at `x` (velocities `v`,
+/// inverse masses `w`) with [`strip`].
+fn edge_contacts(x: &[Vec3; 3], v: &[Vec3; 3], w: &[f32; 3]) -> Vec<SolveContact> {
+    let mut out = Vec::new();
+    let mut buffers = ObstacleBuffers::default();
+    let dt = 1.0 / 60.0;
+    let faces = [[0, 1, 2]];
+    let other = strip();
+    predict_edge_contacts(
+        &faces,
+        (x, v, w),
+        (0.0, dt),
+        &other,
+        PAIR,
+        &mut buffers,
+        &mut out,
+    );
+    out
+}
+
+#[test]
+fn an_edge_resting_across_the_other_cloth_s_edges_is_held_through_its_ends() {
+    // Two edges of the triangle lie across the strip's long edges, their
+    // corners 29 cm off it; the third lies beside it.
+    let at = |y: f32| {
+        [
+            Vec3::new(-0.3, y, 0.0),
+            Vec3::new(0.3, y, 0.0),
+            Vec3::new(0.3, y, 0.3),
+        ]
+    };
+    let h = EDGE_THICKNESS * PAIR.thickness;
+    let still = [Vec3::ZERO; 3];
+    let list = edge_contacts(&at(h), &still, &[1.0; 3]);
+    let mut ends: Vec<u32> = list.iter().map(|c| c.particle).collect();
+    ends.sort_unstable();
+    assert_eq!(ends, [0, 0, 1, 2], "{list:?}");
+    for c in &list {
+        assert!(c.edge && c.source == CLOTH_SOURCE, "{c:?}");
+        assert!(c.normal.distance(Vec3::Y) < 1e-5, "{c:?}");
+        assert!(c.gap.abs() < 1e-5 && c.velocity == Vec3::ZERO, "{c:?}");
+        assert_eq!(c.friction, 0.0);
+    }
+    // Lying the full thickness over it, as a sheet lying on a sheet: none.
+    assert!(edge_contacts(&at(PAIR.thickness), &still, &[1.0; 3]).is_empty());
+    // The same, falling onto it at 1 m/s (1.7 cm in the step): held, its
+    // gap the 2.5 mm to go.
+    let falling = [Vec3::new(0.0, -1.0, 0.0); 3];
+    let list = edge_contacts(&at(PAIR.thickness), &falling, &[1.0; 3]);
+    assert_eq!(list.len(), 4, "{list:?}");
+    assert!(
+        list.iter()
+            .all(|c| (c.gap - (PAIR.thickness - h)).abs() < 1e-5)
+    );
+    // Below it, rising: held on its own side, below.
+    let rising = [Vec3::new(0.0, 1.0, 0.0); 3];
+    let list = edge_contacts(&at(-PAIR.thickness), &rising, &[1.0; 3]);
+    assert_eq!(list.len(), 4, "{list:?}");
+    assert!(list.iter().all(|c| c.normal.distance(-Vec3::Y) < 1e-5));
+    // Far above it, falling: none yet.
+    assert!(edge_contacts(&at(0.5), &falling, &[1.0; 3]).is_empty());
+    // A pinned corner takes none; a pinned edge lists nothing.
+    let list = edge_contacts(&at(h), &still, &[0.0, 1.0, 1.0]);
+    assert!(
+        list.iter().all(|c| c.particle != 0) && list.len() == 2,
+        "{list:?}"
+    );
+    assert!(edge_contacts(&at(h), &still, &[0.0, 0.0, 1.0]).len() == 1);
+    // A NaN corner: its edges list nothing, and nothing panics.
+    let mut x = at(h);
+    x[0].y = f32::NAN;
+    assert!(edge_contacts(&x, &still, &[1.0; 3]).is_empty());
+    // Mismatched slices: nothing.
+    let mut out = Vec::new();
+    let (faces, other) = ([[0, 1, 2]], strip());
+    let mut buffers = ObstacleBuffers::default();
+    let x = at(h);
+    let pair = (&x[..], &still[..2], &[1.0; 3][..]);
+    predict_edge_contacts(
+        &faces,
+        pair,
+        (0.0, 0.01),
+        &other,
+        PAIR,
+        &mut buffers,
+        &mut out,
+    );
+    assert!(out.is_empty());
+}
+
+#[test]
+fn an_edge_whose_nearest_point_is_a_corner_lists_no_edge_contact() {
+    // The triangle stands on its corner 0 over the strip's middle: the
+    // particle–triangle contacts hold that corner, not its edges.
+    let h = EDGE_THICKNESS * PAIR.thickness;
+    let x = [
+        Vec3::new(0.0, h, 0.0),
+        Vec3::new(0.0, h + 0.3, 0.0),
+        Vec3::new(0.0, h + 0.3, 0.3),
+    ];
+    assert!(edge_contacts(&x, &[Vec3::ZERO; 3], &[1.0; 3]).is_empty());
+}
