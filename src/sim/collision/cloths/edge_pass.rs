@@ -64,10 +64,6 @@ impl ClothObstacle {
 /// normal, gap (m) and the other edge's velocity there (m/s).
 /// Where the nearest point is an end of either edge, the particle–triangle
 /// contacts hold it.
-#[expect(
-    clippy::too_many_arguments,
-    reason = "a plain function over the cloth's slices"
-)]
 pub fn predict_edge_contacts(
     faces: &[[u32; 3]],
     (x, v, w): (&[Vec3], &[Vec3], &[f32]),
