@@ -3,17 +3,19 @@
 //! over a ribbon, a hem sliding over a hem):
 //!
 //! - **Held in the solve.** An edge of this cloth whose nearest point to an
-//!   edge of the other lies between the ends of both, within
-//!   the pair's thickness, or approaching [`EDGE_THICKNESS`] of it within
-//!   the substep, is listed as an *edge contact* on each of its free ends
+//!   edge of the other lies between the ends of both, and which the two
+//!   edges' speeds could bring within [`EDGE_THICKNESS`] of the pair's
+//!   thickness in the substep (moving apart or not while within the
+//!   thickness, only approaching beyond it), is listed as an *edge
+//!   contact* on each of its free ends
 //!   ([`SolveContact::edge`]): the normal from the other edge's nearest
 //!   point to this one's, that point's gap and the other edge's velocity
 //!   there. The solve holds each end from moving along the normal into the
 //!   other edge by more than the gap, so the edge's point stays off it;
 //!   friction acts after the solve, as on the particles' contacts
-//!   ([`rub`](super::rub)). Edges of two sheets lying on each other are
-//!   the thickness apart: a quarter of it from their edge contacts, which
-//!   hold nothing unless pressed closer ([`predict_edge_contacts`]).
+//!   ([`rub`](super::rub)). Edges of two sheets lying still on each other
+//!   are the thickness apart, a quarter of it out of reach of their edge
+//!   contacts ([`predict_edge_contacts`]).
 //! - **Put back.** An edge that passed through an edge of the other over a
 //!   substep all the same is put back on the side it came from
 //!   ([`undo_edge_crossings`]).
@@ -58,10 +60,11 @@ impl ClothObstacle {
 /// edges of this cloth's triangles (`faces`; positions `x` m, velocities
 /// `v` m/s, inverse masses `w` 1/kg, at `time` s into the fixed step) off
 /// `other`'s edges over a substep of `dt` s: for each edge, its nearest
-/// point to the other's edges that lies between the ends of both, within
-/// the pair's thickness, or approaching and reaching [`EDGE_THICKNESS`] of
-/// it within the substep; one contact on each free end, with that point's
-/// normal, gap (m) and the other edge's velocity there (m/s).
+/// point to the other's edges that lies between the ends of both and that
+/// the two edges' speeds could bring within [`EDGE_THICKNESS`] of the
+/// pair's thickness in the substep (beyond the thickness, only while it
+/// approaches); one contact on each free end, with that point's normal,
+/// gap (m) and the other edge's velocity there (m/s).
 /// Where the nearest point is an end of either edge, the particle–triangle
 /// contacts hold it.
 pub fn predict_edge_contacts(
@@ -120,11 +123,11 @@ pub fn predict_edge_contacts(
             if gap > reach - h {
                 continue;
             }
-            // Within the pair's thickness it is listed moving apart or not:
-            // the links of a cloth hanging over the other edge can pull one
-            // rising off it back onto it within the substep, and the solve
-            // lets go of a contact its forces carry clear. Farther, only
-            // while it approaches.
+            // Within the pair's thickness it is listed moving apart or not
+            // (within reach): the links of a cloth hanging over the other
+            // edge can pull one rising off it back onto it within the
+            // substep, and the solve lets go of a contact its forces carry
+            // clear. Farther, only while it approaches.
             let (vc, vd) = (other.v[c as usize], other.v[d as usize]);
             let vs = vc.lerp(vd, u);
             let approach = dt * (v[a].lerp(v[b], s) - vs).dot(normal);
