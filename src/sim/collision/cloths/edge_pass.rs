@@ -56,7 +56,7 @@ impl ClothObstacle {
     }
 }
 
-/// Adds to `out` the edge contacts ([module docs](self)) that hold the
+/// Adds to `out` the edge contacts ([`cloths`](super)) that hold the
 /// edges of this cloth's triangles (`faces`; positions `x` m, velocities
 /// `v` m/s, inverse masses `w` 1/kg, at `time` s into the fixed step) off
 /// `other`'s edges over a substep of `dt` s: for each edge, its nearest
