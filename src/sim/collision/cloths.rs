@@ -332,6 +332,29 @@ fn point_off_triangle(
     Some((normal, d - h, bary))
 }
 
+/// A contact of `particle` with another cloth: the surface's unit
+/// `normal`, the `gap` (m) and the surface's `velocity` (m/s) there, an
+/// [`edge`](SolveContact::edge) contact or not.
+fn cloth_contact(
+    particle: usize,
+    (normal, gap, velocity): (Vec3, f32, Vec3),
+    edge: bool,
+) -> SolveContact {
+    SolveContact {
+        particle: particle as u32,
+        normal,
+        gap,
+        velocity,
+        // Friction between cloths acts after the solve ([`rub`]): held in
+        // it, against a surface whose particles the contact does not
+        // carry, it shook the resting sheets.
+        friction: 0.0,
+        source: CLOTH_SOURCE,
+        body: NO_BODY,
+        edge,
+    }
+}
+
 /// Adds to `out` the contacts that hold this cloth (`faces` for its
 /// triangles, positions `x` m, velocities `v` m/s, inverse masses `w`
 /// 1/kg, at `time` s into the fixed step) off `other` over a substep of
@@ -357,19 +380,8 @@ pub fn predict_cloth_contacts(
     if !(h.is_finite() && h > 0.0 && dt > 0.0) {
         return;
     }
-    let contact = |particle: usize, normal: Vec3, gap: f32, velocity: Vec3| SolveContact {
-        particle: particle as u32,
-        normal,
-        gap,
-        velocity,
-        // Friction between cloths acts after the solve
-        // ([`rub`]): held in it, against a surface whose particles
-        // the contact does not carry, it shook the resting sheets.
-        friction: 0.0,
-        source: CLOTH_SOURCE,
-        body: NO_BODY,
-        edge: false,
-    };
+    let contact =
+        |particle, normal, gap, velocity| cloth_contact(particle, (normal, gap, velocity), false);
     let speed = other.speed;
     // This cloth's particles against the other's triangles.
     for p in 0..x.len() {

@@ -22,10 +22,10 @@
 
 use bevy::math::Vec3;
 
-use super::{CLOTH_SOURCE, ClothObstacle, ObstacleBuffers, Pair, TOUCH};
+use super::{ClothObstacle, ObstacleBuffers, Pair, TOUCH, cloth_contact};
 use crate::sim::collision::ccd::{Crossing, edge_edge};
 use crate::sim::collision::edges::segments_nearest;
-use crate::sim::integrate::implicit::{Hold, NO_BODY, SolveContact};
+use crate::sim::integrate::implicit::{Hold, SolveContact};
 
 /// The fraction of the pair's thickness (dimensionless) an edge keeps from
 /// another cloth's edge in the solve: two sheets lying on each other, their
@@ -145,16 +145,7 @@ pub fn predict_edge_contacts(
             if w[end] == 0.0 {
                 continue;
             }
-            out.push(SolveContact {
-                particle: end as u32,
-                normal,
-                gap,
-                velocity,
-                friction: 0.0,
-                source: CLOTH_SOURCE,
-                body: NO_BODY,
-                edge: true,
-            });
+            out.push(cloth_contact(end, (normal, gap, velocity), true));
         }
     }
 }
