@@ -1,4 +1,4 @@
-//! The gizmo debug view (`cargo test --features debug --test debug`).
+//! The gizmo debug view (`cargo test --test debug`: the tests build with the `debug` feature).
 #![cfg(feature = "debug")]
 
 mod common;
