@@ -328,12 +328,13 @@ fn orbit_unless_on_cloth(pointer: ClothPointer, mut cameras: Query<&mut PanOrbit
     }
 }
 
-/// The gizmo debug view, with `--features debug` (F3 toggles it).
+/// The gizmo debug view, with the `debug` feature (F3 toggles it; this
+/// repository's examples build with it).
 #[cfg(feature = "debug")]
 fn debug_view(app: &mut App) {
     app.add_plugins(ClothDebugPlugin);
 }
 
-/// The gizmo debug view needs `--features debug`.
+/// The gizmo debug view needs the `debug` feature.
 #[cfg(not(feature = "debug"))]
 fn debug_view(_: &mut App) {}
