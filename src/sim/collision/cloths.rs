@@ -221,32 +221,60 @@ impl ClothObstacle {
     /// triangle for a box of more than [`MAX_QUERY_CELLS`] cells.
     fn gather(&self, lo: Vec3, hi: Vec3, out: &mut Vec<u32>) {
         out.clear();
+        if self.each_near(lo, hi, |t| out.push(t)) {
+            out.sort_unstable();
+            out.dedup();
+        }
+    }
+
+    /// As [`gather`](Self::gather), in no particular order, with `seen`
+    /// (an entry per triangle, none of them `query`) marking the triangles
+    /// listed in place of a sort.
+    fn gather_marked(
+        &self,
+        (lo, hi): (Vec3, Vec3),
+        (seen, query): (&mut [u32], u32),
+        out: &mut Vec<u32>,
+    ) {
+        out.clear();
+        self.each_near(lo, hi, |t| {
+            if let Some(mark) = seen.get_mut(t as usize)
+                && *mark != query
+            {
+                *mark = query;
+                out.push(t);
+            }
+        });
+    }
+
+    /// Calls `each` with every triangle hashed in the cells of the box
+    /// `lo..hi` (m) and every fast one, some more than once, and returns
+    /// true; or, for a box of more than [`MAX_QUERY_CELLS`] cells or not
+    /// finite, with every triangle once, and returns false.
+    fn each_near(&self, lo: Vec3, hi: Vec3, mut each: impl FnMut(u32)) -> bool {
         let inv_cell = 1.0 / self.cell;
         let (a, b) = (cell_of(lo, inv_cell), cell_of(hi, inv_cell));
         let count = (0..3)
             .map(|i| (b[i] as i64 - a[i] as i64 + 1).max(0))
             .product::<i64>();
         if !(lo.is_finite() && hi.is_finite()) || count > MAX_QUERY_CELLS {
-            out.extend(0..self.faces.len() as u32);
-            return;
+            (0..self.faces.len() as u32).for_each(each);
+            return false;
         }
         for i in a[0]..=b[0] {
             for j in a[1]..=b[1] {
                 for k in a[2]..=b[2] {
                     let k = key([i, j, k]);
                     let from = self.entries.partition_point(|e| e.0 < k);
-                    out.extend(
-                        self.entries[from..]
-                            .iter()
-                            .take_while(|e| e.0 == k)
-                            .map(|e| e.1),
-                    );
+                    self.entries[from..]
+                        .iter()
+                        .take_while(|e| e.0 == k)
+                        .for_each(|e| each(e.1));
                 }
             }
         }
-        out.extend_from_slice(&self.big);
-        out.sort_unstable();
-        out.dedup();
+        self.big.iter().copied().for_each(each);
+        true
     }
 
     /// Its particle `q`'s position at time `t` s into the fixed step, m.
@@ -270,6 +298,31 @@ pub struct ObstacleBuffers {
     own_edges: EdgeList,
     /// The other cloth's edges near one of this cloth's.
     their_edges: Vec<[u32; 2]>,
+    /// Which of the other cloth's triangles a query of its edges listed.
+    marks: Marks,
+}
+
+/// Per triangle, the number of the last query that listed it: a query lists
+/// each triangle once without sorting.
+#[derive(Clone, Debug, Default)]
+struct Marks {
+    seen: Vec<u32>,
+    query: u32,
+}
+
+impl Marks {
+    /// Starts a query over `len` triangles; returns the marks and its number.
+    fn next(&mut self, len: usize) -> (&mut [u32], u32) {
+        if self.seen.len() < len {
+            self.seen.resize(len, 0);
+        }
+        self.query = self.query.wrapping_add(1);
+        if self.query == 0 {
+            self.seen.fill(0);
+            self.query = 1;
+        }
+        (&mut self.seen, self.query)
+    }
 }
 
 /// The unit normal of `[a, b, c]` (zero for a degenerate one).

@@ -22,7 +22,7 @@
 
 use bevy::math::Vec3;
 
-use super::{ClothObstacle, ObstacleBuffers, Pair, TOUCH, cloth_contact};
+use super::{ClothObstacle, Marks, ObstacleBuffers, Pair, TOUCH, cloth_contact};
 use crate::sim::collision::ccd::{Crossing, edge_edge};
 use crate::sim::collision::edges::segments_nearest;
 use crate::sim::integrate::implicit::{Hold, SolveContact};
@@ -35,24 +35,21 @@ pub const EDGE_THICKNESS: f32 = 0.75;
 
 impl ClothObstacle {
     /// The edges of its triangles that may reach into the box `lo..hi`
-    /// (m), each once, into `out` (`candidates`: scratch for the
-    /// triangles).
+    /// (m) into `out`: each triangle's once, so an edge two of them share
+    /// twice (testing it again costs less than a sort). `candidates`:
+    /// scratch for the triangles.
     fn edges_near(
         &self,
         (lo, hi): (Vec3, Vec3),
-        candidates: &mut Vec<u32>,
+        (marks, candidates): (&mut Marks, &mut Vec<u32>),
         out: &mut Vec<[u32; 2]>,
     ) {
-        self.gather(lo, hi, candidates);
+        self.gather_marked((lo, hi), marks.next(self.faces.len()), candidates);
         out.clear();
         for &t in candidates.iter() {
             let [p, q, r] = self.faces[t as usize];
-            for (i, j) in [(p, q), (q, r), (r, p)] {
-                out.push([i.min(j), i.max(j)]);
-            }
+            out.extend([[p, q], [q, r], [r, p]]);
         }
-        out.sort_unstable();
-        out.dedup();
     }
 }
 
@@ -98,10 +95,10 @@ pub fn predict_edge_contacts(
         if !other.overlaps(lo, hi) {
             continue;
         }
-        let (candidates, theirs) = (&mut buffers.candidates, &mut buffers.their_edges);
-        other.edges_near((lo, hi), candidates, theirs);
+        let scratch = (&mut buffers.marks, &mut buffers.candidates);
+        other.edges_near((lo, hi), scratch, &mut buffers.their_edges);
         let mut best: Option<(f32, Vec3, Vec3)> = None;
-        for &[c, d] in theirs.iter() {
+        for &[c, d] in buffers.their_edges.iter() {
             let (qc, qd) = (other.at(c, time), other.at(d, time));
             if !(qc.min(qd).cmple(hi).all() && lo.cmple(qc.max(qd)).all()) {
                 continue;
@@ -210,8 +207,8 @@ pub fn undo_edge_crossings(
         if !other.overlaps(lo - h, hi + h) {
             continue;
         }
-        let (candidates, theirs) = (&mut buffers.candidates, &mut buffers.their_edges);
-        other.edges_near((lo - h, hi + h), candidates, theirs);
+        let scratch = (&mut buffers.marks, &mut buffers.candidates);
+        other.edges_near((lo - h, hi + h), scratch, &mut buffers.their_edges);
         let mut deepest: Option<(Crossing, [Vec3; 4], f32)> = None;
         for &[c, d] in &buffers.their_edges {
             let begin = [start[a], start[b], other.at(c, from), other.at(d, from)];

@@ -509,3 +509,48 @@ fn an_edge_whose_nearest_point_is_a_corner_lists_no_edge_contact() {
     ];
     assert!(edge_contacts(&x, &[Vec3::ZERO; 3], &[1.0; 3]).is_empty());
 }
+
+#[test]
+fn a_marked_gather_lists_the_triangles_a_sorted_one_does_across_the_marks_wrapping() {
+    // A 10 × 10 grid of 0.1 m squares, each two triangles, at rest.
+    let x: Vec<Vec3> = (0..121)
+        .map(|i| Vec3::new((i % 11) as f32 * 0.1, 0.0, (i / 11) as f32 * 0.1))
+        .collect();
+    let faces = (0..100u32).flat_map(|s| {
+        let (i, j) = (s % 10, s / 10);
+        let a = j * 11 + i;
+        [[a, a + 1, a + 12], [a, a + 12, a + 11]]
+    });
+    let mut obstacle = ClothObstacle::default();
+    let (v, w) = (vec![Vec3::ZERO; 121], vec![1.0; 121]);
+    ClothObstacle::take(faces, (&x, &v, &w), (1.0 / 60.0, 0.01, 0.1), &mut obstacle).unwrap();
+    let mut marks = Marks {
+        query: u32::MAX - 3,
+        ..Marks::default()
+    };
+    let (mut sorted, mut marked) = (Vec::new(), Vec::new());
+    let mut seed = 7u32;
+    let mut next = || {
+        seed = seed.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+        (seed >> 8) as f32 / (1 << 24) as f32
+    };
+    let mut boxes: Vec<(Vec3, Vec3)> = (0..40)
+        .map(|_| {
+            let c = Vec3::new(next() * 1.2 - 0.1, next() * 0.1 - 0.05, next() * 1.2 - 0.1);
+            let r = Vec3::splat(0.01 + 0.2 * next());
+            (c - r, c + r)
+        })
+        .collect();
+    boxes.push((Vec3::splat(-50.0), Vec3::splat(50.0)));
+    boxes.push((Vec3::splat(f32::NAN), Vec3::ONE));
+    for (lo, hi) in boxes {
+        obstacle.gather(lo, hi, &mut sorted);
+        obstacle.gather_marked((lo, hi), marks.next(obstacle.faces.len()), &mut marked);
+        let listed = marked.len();
+        marked.sort_unstable();
+        marked.dedup();
+        assert_eq!(listed, marked.len(), "a triangle listed twice");
+        assert_eq!(marked, sorted, "box {lo}..{hi}");
+    }
+    assert!(marks.query < 100, "the marks wrapped: {}", marks.query);
+}
