@@ -293,8 +293,12 @@ impl ClothContacts<'_> {
     /// Seconds into the step at the substep's start and end.
     fn times(sub: crate::sim::step::Substep) -> (f32, f32) {
         let span = sub.to - sub.from;
-        let step = if span > 0.0 { sub.dt / span } else { 0.0 };
-        (sub.from * step, sub.to * step)
+        if span.is_nan() || span <= 0.0 {
+            return (0.0, 0.0);
+        }
+        // The end as the contacts' prediction reckons it, to the bit.
+        let from = sub.from * (sub.dt / span);
+        (from, from + sub.dt)
     }
 
     /// Adds the contacts that hold the cloth (positions `x` m, velocities

@@ -37,10 +37,12 @@
 //! A spatial hash over each obstacle's triangles, swept over the step,
 //! finds the candidates.
 
+use std::sync::atomic::{AtomicU64, Ordering};
+
 use bevy::math::Vec3;
 
 use super::ccd::EdgeList;
-use super::cells::{cell_of, key};
+use super::cells::{CellTable, cell_of, key};
 use super::self_collision::barycentric;
 use super::trimesh::closest_point_on_triangle;
 use crate::sim::integrate::implicit::{Hold, NO_BODY, SolveContact};
@@ -96,10 +98,13 @@ pub struct ClothObstacle {
     pub speed: f32,
     /// Side of the hash cells, m.
     cell: f32,
-    /// `(cell key, triangle)`, sorted by key.
-    entries: Vec<(u64, u32)>,
+    /// Its triangles by cell.
+    entries: CellTable,
     /// Triangles whose sweep spans more than [`MAX_SPAN`] cells a side.
     big: Vec<u32>,
+    /// A number no other take of any obstacle has (0: never taken): what
+    /// was listed against this take can be used again while it holds.
+    stamp: u64,
 }
 
 /// A colliding pair as one of its cloths sees it.
@@ -158,6 +163,8 @@ impl ClothObstacle {
             return None;
         }
         let this = reuse;
+        static TAKES: AtomicU64 = AtomicU64::new(1);
+        this.stamp = TAKES.fetch_add(1, Ordering::Relaxed);
         this.faces.clear();
         this.faces
             .extend(faces.filter(|t| t.iter().all(|&q| (q as usize) < n)));
@@ -190,11 +197,9 @@ impl ClothObstacle {
                 continue;
             }
             let entries = &mut this.entries;
-            cells(lo - pad, hi + pad, inv_cell, |k| {
-                entries.push((k, t as u32))
-            });
+            cells(lo - pad, hi + pad, inv_cell, |k| entries.enter(k, t as u32));
         }
-        this.entries.sort_unstable();
+        this.entries.finish();
         Some(())
     }
 
@@ -212,7 +217,8 @@ impl ClothObstacle {
             let reach = Vec3::splat(motion + h);
             return self.gather(p - reach, p + reach, out);
         }
-        single_cell(&self.entries, key(cell_of(p, 1.0 / self.cell)), out);
+        out.clear();
+        out.extend_from_slice(self.entries.cell(key(cell_of(p, 1.0 / self.cell))));
         out.extend_from_slice(&self.big);
     }
 
@@ -253,6 +259,11 @@ impl ClothObstacle {
     /// finite, with every triangle once, and returns false.
     fn each_near(&self, lo: Vec3, hi: Vec3, mut each: impl FnMut(u32)) -> bool {
         let inv_cell = 1.0 / self.cell;
+        // A triangle's box meets the box where its box grown by the pad,
+        // as it is hashed, meets the box shrunk by the pad (down to its
+        // middle).
+        let middle = (lo + hi) * 0.5;
+        let (lo, hi) = ((lo + self.pad).min(middle), (hi - self.pad).max(middle));
         let (a, b) = (cell_of(lo, inv_cell), cell_of(hi, inv_cell));
         let count = (0..3)
             .map(|i| (b[i] as i64 - a[i] as i64 + 1).max(0))
@@ -264,12 +275,10 @@ impl ClothObstacle {
         for i in a[0]..=b[0] {
             for j in a[1]..=b[1] {
                 for k in a[2]..=b[2] {
-                    let k = key([i, j, k]);
-                    let from = self.entries.partition_point(|e| e.0 < k);
-                    self.entries[from..]
+                    self.entries
+                        .cell(key([i, j, k]))
                         .iter()
-                        .take_while(|e| e.0 == k)
-                        .for_each(|e| each(e.1));
+                        .for_each(|&t| each(t));
                 }
             }
         }
@@ -292,14 +301,17 @@ impl ClothObstacle {
 #[derive(Clone, Debug, Default)]
 pub struct ObstacleBuffers {
     candidates: Vec<u32>,
-    /// Own triangles hashed: `(cell key, triangle)` sorted.
-    own: Vec<(u64, u32)>,
+    /// Own triangles by cell.
+    own: CellTable,
     /// Own triangles' edges.
     own_edges: EdgeList,
     /// The other cloth's edges near one of this cloth's.
     their_edges: Vec<[u32; 2]>,
     /// Which of the other cloth's triangles a query of its edges listed.
     marks: Marks,
+    /// The other cloths' edges near each own edge over the substep, per
+    /// neighbour.
+    pairs: Vec<EdgePairs>,
 }
 
 /// Per triangle, the number of the last query that listed it: a query lists
@@ -559,7 +571,7 @@ fn hash_own(
     x: &[Vec3],
     v: &[Vec3],
     (dt, pad, inv_cell): (f32, f32, f32),
-    entries: &mut Vec<(u64, u32)>,
+    entries: &mut CellTable,
 ) {
     entries.clear();
     for (t, tri) in faces.iter().enumerate() {
@@ -570,31 +582,27 @@ fn hash_own(
             hi = hi.max(s).max(e);
         }
         if lo.is_finite() && hi.is_finite() {
-            cells(lo - pad, hi + pad, inv_cell, |k| {
-                entries.push((k, t as u32))
-            });
+            cells(lo - pad, hi + pad, inv_cell, |k| entries.enter(k, t as u32));
         }
     }
-    entries.sort_unstable();
+    entries.finish();
 }
 
 /// The triangles of `entries` in cell `k`, into `out`.
-fn single_cell(entries: &[(u64, u32)], k: u64, out: &mut Vec<u32>) {
+fn single_cell(entries: &CellTable, k: u64, out: &mut Vec<u32>) {
     out.clear();
-    let from = entries.partition_point(|e| e.0 < k);
-    out.extend(entries[from..].iter().take_while(|e| e.0 == k).map(|e| e.1));
+    out.extend_from_slice(entries.cell(k));
 }
 
 /// The triangles of `entries` in the cells of the box `lo..hi` (m), each
 /// once.
-fn gather_own(entries: &[(u64, u32)], (lo, hi): (Vec3, Vec3), inv_cell: f32, out: &mut Vec<u32>) {
+fn gather_own(entries: &CellTable, (lo, hi): (Vec3, Vec3), inv_cell: f32, out: &mut Vec<u32>) {
     out.clear();
     if !(lo.is_finite() && hi.is_finite()) {
         return;
     }
     cells(lo, hi, inv_cell, |k| {
-        let from = entries.partition_point(|e| e.0 < k);
-        out.extend(entries[from..].iter().take_while(|e| e.0 == k).map(|e| e.1));
+        out.extend_from_slice(entries.cell(k));
     });
     out.sort_unstable();
     out.dedup();
@@ -697,6 +705,7 @@ pub fn undo_crossings(
 }
 
 mod edge_pass;
+use edge_pass::EdgePairs;
 pub use edge_pass::{EDGE_THICKNESS, predict_edge_contacts, undo_edge_crossings};
 
 #[cfg(test)]

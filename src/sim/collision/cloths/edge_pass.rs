@@ -22,7 +22,7 @@
 
 use bevy::math::Vec3;
 
-use super::{ClothObstacle, Marks, ObstacleBuffers, Pair, TOUCH, cloth_contact};
+use super::{ClothObstacle, Marks, ObstacleBuffers, Pair, SLACK, TOUCH, cloth_contact};
 use crate::sim::collision::ccd::{Crossing, edge_edge};
 use crate::sim::collision::edges::segments_nearest;
 use crate::sim::integrate::implicit::{Hold, SolveContact};
@@ -32,6 +32,131 @@ use crate::sim::integrate::implicit::{Hold, SolveContact};
 /// particles the thickness off the other's triangles, have their edges the
 /// thickness apart too, a quarter of it short of their edge contacts.
 pub const EDGE_THICKNESS: f32 = 0.75;
+
+/// The other cloth's edges near each edge of this cloth over one
+/// substep: listed by [`predict_edge_contacts`] for a box a little larger
+/// than it needs, and taken again by [`undo_edge_crossings`] for every edge
+/// whose path over the substep stayed inside that box (the others are
+/// looked up again), so that a substep looks each edge up once.
+#[derive(Clone, Debug, Default)]
+pub(super) struct EdgePairs {
+    /// The [`stamp`](ClothObstacle::stamp) of the take they were listed
+    /// against (0: none).
+    stamp: u64,
+    /// The substep they were listed for, s into the fixed step.
+    window: (f32, f32),
+    /// Per own edge, the box (m) its list holds every edge of the other
+    /// cloth that reaches into over the substep.
+    boxes: Vec<(Vec3, Vec3)>,
+    /// Per own edge, its list's range in `theirs`.
+    spans: Vec<(u32, u32)>,
+    /// The lists: edges of the other cloth as `[low, high]` particles,
+    /// each once a list.
+    pub(super) theirs: Vec<[u32; 2]>,
+    /// Per particle of the other cloth, the box of its path over the
+    /// window, m.
+    paths: Vec<(Vec3, Vec3)>,
+}
+
+/// How many neighbours' lists a cloth keeps.
+const KEPT: usize = 4;
+
+impl EdgePairs {
+    /// The lists kept in `kept` for the take `stamp`, emptied for the
+    /// substep `window` (s) and `count` own edges unless they are for it.
+    fn slot<'a>(
+        kept: &'a mut Vec<Self>,
+        other: &ClothObstacle,
+        window: (f32, f32),
+        count: usize,
+    ) -> &'a mut Self {
+        let stamp = other.stamp;
+        let at = match kept.iter().position(|p| p.stamp == stamp) {
+            Some(at) => at,
+            None if kept.len() < KEPT => {
+                kept.push(Self::default());
+                kept.len() - 1
+            }
+            // The oldest take: stamps grow.
+            None => (0..kept.len()).min_by_key(|&i| kept[i].stamp).unwrap_or(0),
+        };
+        let this = &mut kept[at];
+        if this.stamp != stamp || this.window != window || this.boxes.len() != count {
+            this.stamp = stamp;
+            this.window = window;
+            this.boxes.clear();
+            this.boxes.resize(count, (Vec3::MAX, Vec3::MIN));
+            this.spans.clear();
+            this.spans.resize(count, (0, 0));
+            this.theirs.clear();
+            this.paths.clear();
+            let (t0, t1) = window;
+            this.paths.extend((0..other.x.len() as u32).map(|q| {
+                let (a, b) = (other.at(q, t0), other.at(q, t1));
+                (a.min(b), a.max(b))
+            }));
+        }
+        this
+    }
+
+    /// Lists the edges of `other` whose path over the window reaches into
+    /// the box `lo..hi` (m) as own edge `edge`'s, and returns them.
+    fn list(
+        &mut self,
+        edge: usize,
+        (lo, hi): (Vec3, Vec3),
+        other: &ClothObstacle,
+        (marks, candidates): (&mut Marks, &mut Vec<u32>),
+    ) -> &[[u32; 2]] {
+        other.gather_marked((lo, hi), marks.next(other.faces.len()), candidates);
+        let from = self.theirs.len();
+        let meets = |(l, h): (Vec3, Vec3)| l.cmple(hi).all() && lo.cmple(h).all();
+        let path = |q: u32| self.paths[q as usize];
+        let union = |(a, b): (Vec3, Vec3), (c, d): (Vec3, Vec3)| (a.min(c), b.max(d));
+        for &t in candidates.iter() {
+            let [p, q, r] = other.faces[t as usize];
+            let (pp, pq, pr) = (path(p), path(q), path(r));
+            if !meets(union(union(pp, pq), pr)) {
+                continue;
+            }
+            for ((c, pc), (d, pd)) in [((p, pp), (q, pq)), ((q, pq), (r, pr)), ((r, pr), (p, pp))] {
+                if meets(union(pc, pd)) {
+                    self.theirs.push([c.min(d), c.max(d)]);
+                }
+            }
+        }
+        let listed = &mut self.theirs[from..];
+        listed.sort_unstable();
+        let mut kept = 0;
+        for i in 0..listed.len() {
+            if kept == 0 || listed[i] != listed[kept - 1] {
+                listed[kept] = listed[i];
+                kept += 1;
+            }
+        }
+        self.theirs.truncate(from + kept);
+        self.boxes[edge] = (lo, hi);
+        self.spans[edge] = (from as u32, self.theirs.len() as u32);
+        &self.theirs[from..]
+    }
+
+    /// Own edge `edge`'s list, if it was listed against the take `stamp`
+    /// for the substep `window` (s) and holds every edge reaching into the
+    /// box `lo..hi` (m).
+    fn listed(
+        &self,
+        stamp: u64,
+        window: (f32, f32),
+        edge: usize,
+        (lo, hi): (Vec3, Vec3),
+    ) -> Option<&[[u32; 2]]> {
+        let (blo, bhi) = *self.boxes.get(edge)?;
+        let same = self.stamp == stamp && self.window == window;
+        let inside = blo.cmple(lo).all() && hi.cmple(bhi).all();
+        let (from, to) = self.spans[edge];
+        (same && inside).then(|| &self.theirs[from as usize..to as usize])
+    }
+}
 
 impl ClothObstacle {
     /// The edges of its triangles that may reach into the box `lo..hi`
@@ -78,10 +203,21 @@ pub fn predict_edge_contacts(
     if !(h.is_finite() && h > 0.0 && dt > 0.0) || v.len() != n || w.len() != n {
         return;
     }
-    buffers
-        .own_edges
-        .update(|| faces.iter().copied(), faces.len());
-    for &[a, b] in &buffers.own_edges.edges {
+    let ObstacleBuffers {
+        own_edges,
+        marks,
+        candidates,
+        pairs,
+        ..
+    } = buffers;
+    own_edges.update(|| faces.iter().copied(), faces.len());
+    let window = (time, time + dt);
+    let listed = EdgePairs::slot(pairs, other, window, own_edges.edges.len());
+    // The boxes listed are this much (m) larger than the substep's
+    // prediction needs, so that the crossings after it find their edges
+    // listed.
+    let spare = SLACK;
+    for (edge, &[a, b]) in own_edges.edges.iter().enumerate() {
         let (a, b) = (a as usize, b as usize);
         if a >= n || b >= n || w[a] + w[b] == 0.0 {
             continue;
@@ -92,13 +228,13 @@ pub fn predict_edge_contacts(
         }
         let reach = h + TOUCH + (v[a].length().max(v[b].length()) + other.speed) * dt;
         let (lo, hi) = (x[a].min(x[b]) - reach, x[a].max(x[b]) + reach);
-        if !other.overlaps(lo, hi) {
+        if !other.overlaps(lo - spare, hi + spare) {
             continue;
         }
-        let scratch = (&mut buffers.marks, &mut buffers.candidates);
-        other.edges_near((lo, hi), scratch, &mut buffers.their_edges);
+        let scratch = (&mut *marks, &mut *candidates);
+        let near = listed.list(edge, (lo - spare, hi + spare), other, scratch);
         let mut best: Option<(f32, Vec3, Vec3)> = None;
-        for &[c, d] in buffers.their_edges.iter() {
+        for &[c, d] in near {
             let (qc, qd) = (other.at(c, time), other.at(d, time));
             if !(qc.min(qd).cmple(hi).all() && lo.cmple(qc.max(qd)).all()) {
                 continue;
@@ -187,10 +323,18 @@ pub fn undo_edge_crossings(
     if w.len() != n || !(lying || held.is_empty()) {
         return 0;
     }
-    let own = &mut buffers.own_edges;
-    own.update(|| faces.iter().copied(), faces.len());
+    let ObstacleBuffers {
+        own_edges,
+        marks,
+        candidates,
+        their_edges,
+        pairs,
+        ..
+    } = buffers;
+    own_edges.update(|| faces.iter().copied(), faces.len());
+    let listed = pairs.iter().find(|p| p.stamp == other.stamp);
     let mut moved = 0;
-    for &[a, b] in &buffers.own_edges.edges {
+    for (edge, &[a, b]) in own_edges.edges.iter().enumerate() {
         let (a, b) = (a as usize, b as usize);
         if a >= n || b >= n {
             continue;
@@ -207,10 +351,16 @@ pub fn undo_edge_crossings(
         if !other.overlaps(lo - h, hi + h) {
             continue;
         }
-        let scratch = (&mut buffers.marks, &mut buffers.candidates);
-        other.edges_near((lo - h, hi + h), scratch, &mut buffers.their_edges);
+        let near = match listed.and_then(|l| l.listed(other.stamp, (from, to), edge, (lo, hi))) {
+            Some(near) => near,
+            None => {
+                let scratch = (&mut *marks, &mut *candidates);
+                other.edges_near((lo - h, hi + h), scratch, their_edges);
+                &their_edges[..]
+            }
+        };
         let mut deepest: Option<(Crossing, [Vec3; 4], f32)> = None;
-        for &[c, d] in &buffers.their_edges {
+        for &[c, d] in near {
             let begin = [start[a], start[b], other.at(c, from), other.at(d, from)];
             let end = [x[a], x[b], other.at(c, to), other.at(d, to)];
             let (olo, ohi) = (begin[2].min(begin[3]), begin[2].max(begin[3]));

@@ -554,3 +554,166 @@ fn a_marked_gather_lists_the_triangles_a_sorted_one_does_across_the_marks_wrappi
     }
     assert!(marks.query < 100, "the marks wrapped: {}", marks.query);
 }
+
+#[test]
+fn a_gather_lists_every_triangle_whose_box_meets_the_box_asked() {
+    // A 10 × 10 grid of 2.7 cm squares, bent, moving, hashed in cells of
+    // 3 cm (a query looks in fewer cells than its box spans: the triangles
+    // are hashed grown by the pad).
+    let x: Vec<Vec3> = (0..121)
+        .map(|i| {
+            let (i, j) = ((i % 11) as f32, (i / 11) as f32);
+            Vec3::new(0.011 + i * 0.027, 0.01 * (i * j).sin(), 0.004 + j * 0.027)
+        })
+        .collect();
+    let v: Vec<Vec3> = (0..121)
+        .map(|i| Vec3::new(0.0, (i % 5) as f32 * 0.1, 0.0))
+        .collect();
+    let faces = (0..100u32).flat_map(|s| {
+        let (i, j) = (s % 10, s / 10);
+        let a = j * 11 + i;
+        [[a, a + 1, a + 12], [a, a + 12, a + 11]]
+    });
+    let mut obstacle = ClothObstacle::default();
+    let dt = 1.0 / 60.0;
+    ClothObstacle::take(
+        faces,
+        (&x, &v, &[1.0; 121]),
+        (dt, 0.01, 0.03),
+        &mut obstacle,
+    )
+    .unwrap();
+    let mut seed = 3u32;
+    let mut next = || {
+        seed = seed.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+        (seed >> 8) as f32 / (1 << 24) as f32
+    };
+    let (mut listed, mut met) = (Vec::new(), 0);
+    for _ in 0..400 {
+        let c = Vec3::new(
+            next() * 0.36 - 0.03,
+            next() * 0.06 - 0.03,
+            next() * 0.36 - 0.03,
+        );
+        let r = Vec3::new(next(), next(), next()) * 0.06;
+        let (lo, hi) = (c - r, c + r);
+        obstacle.gather(lo, hi, &mut listed);
+        assert!(
+            listed.len() < 150,
+            "{} of 200 triangles listed",
+            listed.len()
+        );
+        for (t, tri) in obstacle.faces.iter().enumerate() {
+            let path: Vec<Vec3> = tri
+                .iter()
+                .flat_map(|&q| [x[q as usize], x[q as usize] + v[q as usize] * dt])
+                .collect();
+            let (tlo, thi) = finite_box(&path).unwrap();
+            if tlo.cmple(hi).all() && lo.cmple(thi).all() {
+                met += 1;
+                assert!(listed.contains(&(t as u32)), "{t} meets {lo}..{hi}");
+            }
+        }
+    }
+    assert!(met > 400, "only {met} triangles met the boxes");
+}
+
+#[test]
+fn edges_put_back_through_the_listed_edges_are_those_a_fresh_look_up_finds() {
+    // Two 8 × 8 grids of 4 cm squares, 1.5 cm apart: the other one moving
+    // at random, this one falling onto it and through it by random amounts,
+    // some within the boxes the prediction listed, some beyond them.
+    let grid = |columns: u32| {
+        (0..(columns - 1) * (columns - 1)).flat_map(move |s| {
+            let (i, j) = (s % (columns - 1), s / (columns - 1));
+            let a = j * columns + i;
+            [
+                [a, a + 1, a + columns + 1],
+                [a, a + columns + 1, a + columns],
+            ]
+        })
+    };
+    let faces: Vec<[u32; 3]> = grid(8).collect();
+    let mut seed = 11u32;
+    let mut next = || {
+        seed = seed.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+        (seed >> 8) as f32 / (1 << 24) as f32 - 0.5
+    };
+    let dt = 1.0 / 60.0;
+    let (mut listed_any, mut put_back) = (false, 0);
+    for trial in 0..80 {
+        let at = |i: u32, y: f32| Vec3::new((i % 8) as f32 * 0.04, y, (i / 8) as f32 * 0.04);
+        let theirs: Vec<Vec3> = (0..64).map(|i| at(i, 0.004 * next())).collect();
+        let their_v: Vec<Vec3> = (0..64)
+            .map(|_| Vec3::new(next(), next(), next()) * 0.6)
+            .collect();
+        let mut other = ClothObstacle::default();
+        ClothObstacle::take(
+            faces.iter().copied(),
+            (&theirs, &their_v, &[1.0; 64]),
+            (dt, 0.01, 0.04),
+            &mut other,
+        )
+        .unwrap();
+        // Shifted by a third of a square so that edges cross edges.
+        let x: Vec<Vec3> = (0..64)
+            .map(|i| at(i, 0.015) + Vec3::new(0.013, 0.003 * next(), 0.007))
+            .collect();
+        let v: Vec<Vec3> = (0..64)
+            .map(|_| Vec3::new(0.3 * next(), -0.9 + 0.3 * next(), 0.3 * next()))
+            .collect();
+        let w: Vec<f32> = (0..64)
+            .map(|i| if i % 17 == 0 { 0.0 } else { 1.0 })
+            .collect();
+        let mut buffers = ObstacleBuffers::default();
+        let mut out = Vec::new();
+        predict_edge_contacts(
+            &faces,
+            (&x, &v, &w),
+            (0.0, dt),
+            &other,
+            PAIR,
+            &mut buffers,
+            &mut out,
+        );
+        listed_any |= buffers.pairs.iter().any(|p| !p.theirs.is_empty());
+        // Moved by the predicted velocities, then by up to 1 cm (a trial in
+        // four: 15 cm, beyond the boxes listed) more at random.
+        let scale = if trial % 4 == 0 { 0.3 } else { 0.02 };
+        let end: Vec<Vec3> = (0..64)
+            .map(|i| x[i] + v[i] * dt + Vec3::new(next(), next() - 0.3, next()) * scale)
+            .collect();
+        let undo = |buffers: &mut ObstacleBuffers| {
+            let (mut xs, mut vs) = (end.clone(), v.clone());
+            let moved = undo_edge_crossings(
+                &faces,
+                &x,
+                &mut xs,
+                &mut vs,
+                &w,
+                (&[], &[]),
+                (0.0, dt),
+                &other,
+                PAIR,
+                buffers,
+            );
+            (moved, xs, vs)
+        };
+        let listed = undo(&mut buffers);
+        let fresh = undo(&mut ObstacleBuffers::default());
+        // The same edges, put back alike up to rounding (a listed edge may
+        // run the other way).
+        assert_eq!(listed.0, fresh.0, "trial {trial}");
+        for (a, b) in listed
+            .1
+            .iter()
+            .zip(&fresh.1)
+            .chain(listed.2.iter().zip(&fresh.2))
+        {
+            assert!(a.distance(*b) < 1e-5, "trial {trial}: {a} {b}");
+        }
+        put_back += listed.0;
+    }
+    assert!(listed_any, "the prediction listed no edge");
+    assert!(put_back > 50, "only {put_back} edges put back");
+}
