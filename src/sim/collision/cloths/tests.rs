@@ -510,17 +510,26 @@ fn an_edge_whose_nearest_point_is_a_corner_lists_no_edge_contact() {
     assert!(edge_contacts(&x, &[Vec3::ZERO; 3], &[1.0; 3]).is_empty());
 }
 
+/// The triangles of a square grid of `columns` × `columns` particles, row
+/// by row, two a square.
+fn grid_faces(columns: u32) -> impl Iterator<Item = [u32; 3]> {
+    (0..(columns - 1) * (columns - 1)).flat_map(move |s| {
+        let (i, j) = (s % (columns - 1), s / (columns - 1));
+        let a = j * columns + i;
+        [
+            [a, a + 1, a + columns + 1],
+            [a, a + columns + 1, a + columns],
+        ]
+    })
+}
+
 #[test]
 fn a_marked_gather_lists_the_triangles_a_sorted_one_does_across_the_marks_wrapping() {
     // A 10 × 10 grid of 0.1 m squares, each two triangles, at rest.
     let x: Vec<Vec3> = (0..121)
         .map(|i| Vec3::new((i % 11) as f32 * 0.1, 0.0, (i / 11) as f32 * 0.1))
         .collect();
-    let faces = (0..100u32).flat_map(|s| {
-        let (i, j) = (s % 10, s / 10);
-        let a = j * 11 + i;
-        [[a, a + 1, a + 12], [a, a + 12, a + 11]]
-    });
+    let faces = grid_faces(11);
     let mut obstacle = ClothObstacle::default();
     let (v, w) = (vec![Vec3::ZERO; 121], vec![1.0; 121]);
     ClothObstacle::take(faces, (&x, &v, &w), (1.0 / 60.0, 0.01, 0.1), &mut obstacle).unwrap();
@@ -569,11 +578,7 @@ fn a_gather_lists_every_triangle_whose_box_meets_the_box_asked() {
     let v: Vec<Vec3> = (0..121)
         .map(|i| Vec3::new(0.0, (i % 5) as f32 * 0.1, 0.0))
         .collect();
-    let faces = (0..100u32).flat_map(|s| {
-        let (i, j) = (s % 10, s / 10);
-        let a = j * 11 + i;
-        [[a, a + 1, a + 12], [a, a + 12, a + 11]]
-    });
+    let faces = grid_faces(11);
     let mut obstacle = ClothObstacle::default();
     let dt = 1.0 / 60.0;
     ClothObstacle::take(
@@ -623,17 +628,7 @@ fn edges_put_back_through_the_listed_edges_are_those_a_fresh_look_up_finds() {
     // Two 8 × 8 grids of 4 cm squares, 1.5 cm apart: the other one moving
     // at random, this one falling onto it and through it by random amounts,
     // some within the boxes the prediction listed, some beyond them.
-    let grid = |columns: u32| {
-        (0..(columns - 1) * (columns - 1)).flat_map(move |s| {
-            let (i, j) = (s % (columns - 1), s / (columns - 1));
-            let a = j * columns + i;
-            [
-                [a, a + 1, a + columns + 1],
-                [a, a + columns + 1, a + columns],
-            ]
-        })
-    };
-    let faces: Vec<[u32; 3]> = grid(8).collect();
+    let faces: Vec<[u32; 3]> = grid_faces(8).collect();
     let mut seed = 11u32;
     let mut next = || {
         seed = seed.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
