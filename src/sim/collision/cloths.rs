@@ -217,8 +217,7 @@ impl ClothObstacle {
             let reach = Vec3::splat(motion + h);
             return self.gather(p - reach, p + reach, out);
         }
-        out.clear();
-        out.extend_from_slice(self.entries.cell(key(cell_of(p, 1.0 / self.cell))));
+        single_cell(&self.entries, key(cell_of(p, 1.0 / self.cell)), out);
         out.extend_from_slice(&self.big);
     }
 

@@ -140,21 +140,19 @@ impl EdgePairs {
         &self.theirs[from..]
     }
 
-    /// Own edge `edge`'s list, if it was listed against the take `stamp`
-    /// for the substep `window` (s) and holds every edge reaching into the
-    /// box `lo..hi` (m).
+    /// Own edge `edge`'s list, if it was listed for the substep `window`
+    /// (s) and holds every edge reaching into the box `lo..hi` (m). The
+    /// caller picks the lists of the take it asks about.
     fn listed(
         &self,
-        stamp: u64,
         window: (f32, f32),
         edge: usize,
         (lo, hi): (Vec3, Vec3),
     ) -> Option<&[[u32; 2]]> {
         let (blo, bhi) = *self.boxes.get(edge)?;
-        let same = self.stamp == stamp && self.window == window;
         let inside = blo.cmple(lo).all() && hi.cmple(bhi).all();
         let (from, to) = self.spans[edge];
-        (same && inside).then(|| &self.theirs[from as usize..to as usize])
+        (self.window == window && inside).then(|| &self.theirs[from as usize..to as usize])
     }
 }
 
@@ -351,7 +349,7 @@ pub fn undo_edge_crossings(
         if !other.overlaps(lo - h, hi + h) {
             continue;
         }
-        let near = match listed.and_then(|l| l.listed(other.stamp, (from, to), edge, (lo, hi))) {
+        let near = match listed.and_then(|l| l.listed((from, to), edge, (lo, hi))) {
             Some(near) => near,
             None => {
                 let scratch = (&mut *marks, &mut *candidates);
