@@ -12,7 +12,9 @@
 //! left 5 s before the timing. The Apps are timed in turns of 20 frames so
 //! that all see the same state of a shared, noisy machine. Printed per size: the median and
 //! range of the ms per frame of each, and of the frame in which the banner
-//! is cut in 20 pieces (9 fresh banners).
+//! is cut in 20 pieces (9 fresh banners); and the implicit solve's mean and
+//! largest iteration count over the second after the cut, and the frames of
+//! it that stopped at the iteration cap.
 //!
 //! `cargo bench --bench tear -- 32 64` limits the sizes.
 
@@ -39,6 +41,9 @@ struct Banner {
     cloth: Entity,
     /// How long the frame of its cut took, ms.
     cut_ms: f64,
+    /// The implicit solve's iterations in each frame of the second after
+    /// the cut (of the frame's last solve).
+    fall: Vec<u32>,
 }
 
 impl Banner {
@@ -76,6 +81,7 @@ impl Banner {
             app,
             cloth,
             cut_ms: 0.0,
+            fall: Vec::new(),
         };
         if cut {
             banner.cut_ms = 1e3 * banner.cut();
@@ -83,6 +89,10 @@ impl Banner {
         }
         for _ in 0..60 {
             banner.frame();
+            if cut {
+                let stats = banner.app.world().get::<ClothStats>(cloth);
+                banner.fall.push(stats.map_or(0, |s| s.solver_iterations));
+            }
         }
         banner
     }
@@ -153,9 +163,9 @@ impl Runner for Banner {
 
 fn main() {
     println!(
-        "| N×N | whole ms (median, range) | whole, tearing on | cut in 20 pieces | the frame of a cut ms (median, range) |"
+        "| N×N | whole ms (median, range) | whole, tearing on | cut in 20 pieces | the frame of a cut ms (median, range) | the pieces' first second: mean / most iterations, at the cap |"
     );
-    println!("|---|---|---|---|---|");
+    println!("|---|---|---|---|---|---|");
     for n in sizes(&SIZES) {
         let mut whole = Banner::new(n, false, false);
         let mut tearing = Banner::new(n, true, false);
@@ -174,8 +184,12 @@ fn main() {
         let (t, t_lo, t_hi) = summary(&mut times[1]);
         let (p, p_lo, p_hi) = summary(&mut times[2]);
         let (c, c_lo, c_hi) = summary(&mut cuts);
+        let cap = ImplicitParams::default().max_iterations;
+        let mean = torn.fall.iter().sum::<u32>() as f64 / torn.fall.len() as f64;
+        let most = torn.fall.iter().max().copied().unwrap_or(0);
+        let capped = torn.fall.iter().filter(|&&k| k >= cap).count();
         println!(
-            "| {n}×{n} | {w:.3} ({w_lo:.3}–{w_hi:.3}) | {t:.3} ({t_lo:.3}–{t_hi:.3}) | {p:.3} ({p_lo:.3}–{p_hi:.3}) | {c:.2} ({c_lo:.2}–{c_hi:.2}) |"
+            "| {n}×{n} | {w:.3} ({w_lo:.3}–{w_hi:.3}) | {t:.3} ({t_lo:.3}–{t_hi:.3}) | {p:.3} ({p_lo:.3}–{p_hi:.3}) | {c:.2} ({c_lo:.2}–{c_hi:.2}) | {mean:.1} / {most}, {capped} |"
         );
     }
 }

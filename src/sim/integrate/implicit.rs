@@ -2,8 +2,8 @@
 //! §6.5) and Choi & Ko's second-order BDF (§6.6), solved matrix-free by a
 //! filtered, preconditioned conjugate gradient: block-Jacobi, plus a
 //! coarse correction over aggregates of particles: a multigrid V-cycle over
-//! grid squares for grid cloths (`coarse.rs`), groups grown over the links
-//! for other cloths (`mesh_coarse.rs`;
+//! grid squares for grid cloths (`coarse.rs`), over groups grown over the
+//! links for other cloths (`mesh_coarse.rs`;
 //! [`ImplicitParams::coarse_grid`](crate::sim::settings::ImplicitParams::coarse_grid)).
 //! The operator is stored by grid offset, so its product runs as SIMD loops
 //! (`operator.rs`); the pairs of other cloths run as one list over the

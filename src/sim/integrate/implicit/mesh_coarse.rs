@@ -1,57 +1,82 @@
 //! The coarse correction of the implicit solver's preconditioner for a
 //! cloth that is not a grid (a mesh cloth, [`Connections::columns`] 0).
 //!
-//! A two-level additive preconditioner, the first level of the grid's
-//! multigrid ([`coarse`](super::coarse)) solved exactly,
-//! `P⁻¹ r = B⁻¹ r + R A_c⁻¹ Rᵀ r` with
-//! `A_c = Rᵀ A R`, on aggregates made from the mesh's connectivity rather
-//! than grid squares:
+//! The grid's multigrid ([`coarse`](super::coarse)) on aggregates made from
+//! the mesh's connectivity rather than grid squares:
+//! `P⁻¹ r = B⁻¹ r + R₁ V₁(R₁ᵀ r)`, with `R₁` the piecewise-constant
+//! prolongation from aggregates of about [`SIZE`] linked particles and
+//! `V₁` one V-cycle over levels, each the Galerkin operator
+//! `A_{l+1} = R_lᵀ A_l R_l` of the one below on aggregates of about
+//! [`SIZE`] of its nodes: a block-Jacobi sweep, the residual's correction
+//! from the level above scaled by θ, another sweep; down to at most
+//! [`COARSEST`] nodes, solved exactly.
 //!
 //! - **Aggregates** are grown breadth-first over the Type 1 links, seeds
-//!   taken in a breadth-first order of the whole cloth, each to about
-//!   `n / `[`AGGREGATES`] particles; a leftover aggregate of less than a
-//!   third of that joins a neighbour. They are made once per set of links
-//!   and kept while the links stay the same. Pinned particles belong to
-//!   none, as the filter leaves them out of `A`.
-//! - **`A_c`** (3 unknowns per aggregate) is assembled from the operator's
-//!   pair blocks as for the grid, and factored by a Cholesky
-//!   factorisation in f64 that skips the zeros before each row's first
-//!   coupling (the seeds' breadth-first order keeps coupled aggregates
-//!   close in number, so the profile is narrow).
+//!   taken in a breadth-first order of the whole cloth, a
+//!   leftover node joining a neighbouring aggregate; each level's graph
+//!   joins two aggregates when a link of the level below does. The
+//!   hierarchy is made once per set of links and kept while the links stay
+//!   the same. Pinned particles belong to none, as the filter leaves them
+//!   out of `A`.
+//! - **Each level's operator** is stored as the grid's: a diagonal block
+//!   per node and a block `C` per edge, `A[I][J] = A[J][I] = −C`. A block
+//!   between two aggregates that share no link (a contact between distant
+//!   parts of the cloth) adds `C` to both diagonals only, which keeps the
+//!   operator positive definite.
+//! - **The coarsest level** is factored by a Cholesky factorisation in f64
+//!   that skips the zeros before each row's first coupling (the
+//!   breadth-first numbering keeps coupled aggregates close in number). A
+//!   cloth whose pieces are too many to aggregate that far (a cloth cut
+//!   into scraps) takes a block-Jacobi sweep there instead.
 
-use bevy::math::Vec3;
+use bevy::math::{Mat3A, Vec3A};
 
 use super::coarse::joining_pairs;
 use super::operator::{Soa, sym_matrix};
 use crate::sim::connections::Connections;
 use crate::sim::model::jacobian::Block;
 use crate::sim::model::streams::StreamBlocks;
+use level::Level;
 
-/// How many aggregates the particles are grouped into, about.
-pub const AGGREGATES: usize = 96;
+mod level;
+
+/// Particles (on the first level) or nodes (above) per aggregate, about.
+pub const SIZE: usize = 4;
+
+/// Nodes of the coarsest level at most, solved exactly.
+pub const COARSEST: usize = 64;
+
+/// Weight of a block-Jacobi sweep.
+const OMEGA: f32 = 0.6;
+
+/// Scale of the correction a level takes from the one above it.
+const THETA: f32 = 1.5;
 
 /// Marks a particle outside every aggregate (pinned).
 const NONE: u32 = u32::MAX;
 
-/// The coarse operator of one step of a mesh cloth, factored, and its
-/// aggregation.
+/// The coarse correction of one step of a mesh cloth: its hierarchy of
+/// aggregates and the operator on each level, the coarsest factored.
 #[derive(Clone, Debug, Default)]
 pub(super) struct MeshCoarse {
-    /// What the aggregation was made for: particles, links and a checksum
+    /// What the hierarchy was made for: particles, links and a checksum
     /// of the links' ends.
     key: (usize, usize, u64),
-    /// Aggregate of each particle, pinned or not.
+    /// First-level aggregate of each particle, pinned or not.
     grouped: Vec<u32>,
-    /// This step's aggregate of each particle, [`NONE`] for pinned ones.
+    /// This step's first-level aggregate of each particle, [`NONE`] for
+    /// pinned ones.
     aggregate: Vec<u32>,
-    /// Number of aggregates.
-    count: usize,
-    /// `A_c` (kg), dense and row-major, then its Cholesky factor `L` in
-    /// the lower triangle (√kg).
+    /// The levels, first to coarsest.
+    levels: Vec<Level>,
+    /// Whether the coarsest level is solved exactly (else a sweep).
+    exact: bool,
+    /// The coarsest level's `A` (kg), dense and row-major, then its
+    /// Cholesky factor `L` in the lower triangle (√kg).
     matrix: Vec<f64>,
-    /// First non-zero column of each row of `A_c`.
+    /// First non-zero column of each row of the coarsest `A`.
     first: Vec<usize>,
-    /// Coarse right-hand side, then solution.
+    /// Coarsest right-hand side, then solution.
     rc: Vec<f64>,
 }
 
@@ -71,7 +96,7 @@ impl MeshCoarse {
         }
         let key = key(connections, n);
         if key != self.key {
-            self.count = aggregate(connections, n, &mut self.grouped);
+            self.levels = hierarchy(connections, n, &mut self.grouped);
             self.key = key;
         }
         self.aggregate.clear();
@@ -81,56 +106,26 @@ impl MeshCoarse {
                 .zip(inverse_masses)
                 .map(|(&a, &w)| if w == 0.0 { NONE } else { a }),
         );
-        let size = 3 * self.count;
-        self.matrix.clear();
-        self.matrix.resize(size * size, 0.0);
-        self.first.clear();
-        self.first.extend((0..size).map(|row| row - row % 3));
+        let first = &mut self.levels[0];
+        first.reset();
         for (&a, &w) in self.aggregate.iter().zip(inverse_masses) {
             if a != NONE {
-                let m = (mass_scale / w) as f64;
-                for k in 0..3 {
-                    self.matrix[(3 * a as usize + k) * (size + 1)] += m;
-                }
-            }
-        }
-        // An aggregate of pinned particles only is decoupled: identity.
-        for i in 0..self.count {
-            for k in 0..3 {
-                let d = &mut self.matrix[(3 * i + k) * (size + 1)];
-                if *d == 0.0 {
-                    *d = 1.0;
-                }
+                first.diag[a as usize] +=
+                    Mat3A::from_diagonal(bevy::math::Vec3::splat(mass_scale / w));
+                first.filled[a as usize] = true;
             }
         }
         true
     }
 
-    /// Adds the symmetric block `c` (xx, yy, zz, xy, xz, yz; kg) at
-    /// aggregates `(i, j)` of `A_c`, rows `i`, columns `j`.
-    fn put(&mut self, (i, j): (usize, usize), c: &[f32; 6], sign: f64) {
-        let size = 3 * self.count;
-        let m = sym_matrix(c);
-        for r in 0..3 {
-            for k in 0..3 {
-                self.matrix[(3 * i + r) * size + 3 * j + k] += sign * m.col(k)[r] as f64;
-            }
-        }
-        if i > j {
-            for r in 0..3 {
-                let row = 3 * i + r;
-                self.first[row] = self.first[row].min(3 * j);
-            }
-        }
-    }
-
-    /// Adds the symmetric block `c` to particle `a`'s diagonal (a contact
-    /// the solve holds): to its aggregate's, unless it is pinned.
+    /// Adds the symmetric block `c` (xx, yy, zz, xy, xz, yz; kg) to
+    /// particle `a`'s diagonal (a contact the solve holds): to its
+    /// aggregate's, unless it is pinned.
     pub(super) fn add_diagonal(&mut self, a: usize, c: &[f32; 6]) {
         if let Some(&i) = self.aggregate.get(a)
             && i != NONE
         {
-            self.put((i as usize, i as usize), c, 1.0);
+            self.levels[0].diag[i as usize] += Mat3A::from(sym_matrix(c));
         }
     }
 
@@ -140,16 +135,13 @@ impl MeshCoarse {
         if i == j {
             return;
         }
+        let c = Mat3A::from(sym_matrix(c));
+        let first = &mut self.levels[0];
         if i == NONE || j == NONE {
-            let free = i.min(j) as usize;
-            self.put((free, free), c, 1.0);
+            first.diag[i.min(j) as usize] += c;
             return;
         }
-        let (i, j) = (i as usize, j as usize);
-        self.put((i, i), c, 1.0);
-        self.put((j, j), c, 1.0);
-        self.put((i, j), c, -1.0);
-        self.put((j, i), c, -1.0);
+        first.add_pair(i as usize, j as usize, c);
     }
 
     /// Adds every pair of a step of `n` particles that joins two
@@ -169,9 +161,64 @@ impl MeshCoarse {
         });
     }
 
-    /// Factors `A_c` in place; `false` on a pivot that is not positive.
+    /// Forms the levels above the first and factors the coarsest; `false`
+    /// on an operator that is not positive definite.
     pub(super) fn finish(&mut self) -> bool {
-        let size = 3 * self.count;
+        for l in 1..self.levels.len() {
+            let (below, above) = self.levels.split_at_mut(l);
+            below[l - 1].coarsen(&mut above[0]);
+        }
+        let last = self.levels.len() - 1;
+        if !self.levels[..last].iter_mut().all(Level::invert) {
+            return false;
+        }
+        self.exact = self.levels[last].count() <= COARSEST;
+        if !self.exact {
+            return self.levels[last].invert();
+        }
+        self.fill_coarsest();
+        self.factor()
+    }
+
+    /// Writes the coarsest level's operator into the dense matrix, an
+    /// empty node's diagonal the identity.
+    fn fill_coarsest(&mut self) {
+        let level = &self.levels[self.levels.len() - 1];
+        let size = 3 * level.count();
+        self.matrix.clear();
+        self.matrix.resize(size * size, 0.0);
+        self.first.clear();
+        self.first.extend((0..size).map(|row| row - row % 3));
+        let mut put = |(i, j): (usize, usize), m: Mat3A, sign: f64| {
+            for r in 0..3 {
+                for k in 0..3 {
+                    self.matrix[(3 * i + r) * size + 3 * j + k] += sign * m.col(k)[r] as f64;
+                }
+            }
+        };
+        for i in 0..level.count() {
+            let d = if level.filled[i] {
+                level.diag[i]
+            } else {
+                Mat3A::IDENTITY
+            };
+            put((i, i), d, 1.0);
+            for k in level.start[i] as usize..level.start[i + 1] as usize {
+                let j = level.above[k] as usize;
+                put((i, j), level.off[k], -1.0);
+                put((j, i), level.off[k], -1.0);
+                for r in 0..3 {
+                    let row = 3 * j + r;
+                    self.first[row] = self.first[row].min(3 * i);
+                }
+            }
+        }
+    }
+
+    /// Factors the coarsest operator in place; `false` on a pivot that is
+    /// not positive.
+    fn factor(&mut self) -> bool {
+        let size = self.first.len();
         let a = &mut self.matrix;
         // A row's first coupling bounds its columns' too (the profile).
         for i in 0..size {
@@ -192,20 +239,68 @@ impl MeshCoarse {
         true
     }
 
-    /// `y += R A_c⁻¹ Rᵀ r` over the free particles (`free` is 1 or 0).
+    /// `y += R₁ V₁(R₁ᵀ r)` over the free particles (`free` is 1 or 0; r
+    /// in N·s, zero at pins as the filter leaves it; y in m/s).
     pub(super) fn add(&mut self, r: &Soa, y: &mut Soa, free: &[f32]) {
-        let size = 3 * self.count;
-        let rc = &mut self.rc;
-        rc.clear();
-        rc.resize(size, 0.0);
+        let first = &mut self.levels[0];
+        first.r.fill(Vec3A::ZERO);
         for (p, &a) in self.aggregate.iter().enumerate() {
             if a != NONE {
-                let v = r.get(p);
-                for k in 0..3 {
-                    rc[3 * a as usize + k] += v[k] as f64;
-                }
+                first.r[a as usize] += Vec3A::from(r.get(p));
             }
         }
+        self.cycle_from(0);
+        let e = &self.levels[0].e;
+        for (p, &a) in self.aggregate.iter().enumerate() {
+            if a != NONE {
+                y.set(
+                    p,
+                    y.get(p) + free[p] * bevy::math::Vec3::from(e[a as usize]),
+                );
+            }
+        }
+    }
+
+    /// The V-cycle from level `l`: its `e` from its `r`.
+    fn cycle_from(&mut self, l: usize) {
+        if l + 1 == self.levels.len() {
+            self.solve_coarsest();
+            return;
+        }
+        let (below, above) = self.levels.split_at_mut(l + 1);
+        let (level, up) = (&mut below[l], &mut above[0]);
+        level.e.fill(Vec3A::ZERO);
+        level.jacobi(false);
+        level.residual();
+        up.r.fill(Vec3A::ZERO);
+        for (i, &t) in level.t.iter().enumerate() {
+            up.r[level.parent[i] as usize] += t;
+        }
+        self.cycle_from(l + 1);
+        let (below, above) = self.levels.split_at_mut(l + 1);
+        let (level, up) = (&mut below[l], &above[0]);
+        for (i, e) in level.e.iter_mut().enumerate() {
+            if level.filled[i] {
+                *e += THETA * up.e[level.parent[i] as usize];
+            }
+        }
+        level.residual();
+        level.jacobi(true);
+    }
+
+    /// `e = A⁻¹ r` on the coarsest level (or one sweep when it is not
+    /// solved exactly).
+    fn solve_coarsest(&mut self) {
+        let level = self.levels.last_mut().expect("a level");
+        if !self.exact {
+            level.e.fill(Vec3A::ZERO);
+            level.jacobi(false);
+            return;
+        }
+        let size = self.first.len();
+        let rc = &mut self.rc;
+        rc.clear();
+        rc.extend(level.r.iter().flat_map(|r| r.to_array().map(f64::from)));
         let l = &self.matrix;
         for i in 0..size {
             let row = &l[i * size..];
@@ -220,12 +315,12 @@ impl MeshCoarse {
                 rc[k] -= row[k] * x;
             }
         }
-        for (p, &a) in self.aggregate.iter().enumerate() {
-            if a != NONE {
-                let i = 3 * a as usize;
-                let c = Vec3::new(rc[i] as f32, rc[i + 1] as f32, rc[i + 2] as f32);
-                y.set(p, y.get(p) + free[p] * c);
-            }
+        for (i, e) in level.e.iter_mut().enumerate() {
+            *e = if level.filled[i] {
+                Vec3A::new(rc[3 * i] as f32, rc[3 * i + 1] as f32, rc[3 * i + 2] as f32)
+            } else {
+                Vec3A::ZERO
+            };
         }
     }
 }
@@ -250,46 +345,105 @@ fn dot(a: &[f64], b: &[f64]) -> f64 {
     (sums[0] + sums[1]) + (sums[2] + sums[3]) + tail
 }
 
-/// What an aggregation depends on: the particle count, the Type 1 link
-/// count and a checksum of their ends.
+/// The links the hierarchy is made over: the Type 1 links.
+fn links(connections: &Connections) -> impl Iterator<Item = (u32, u32)> + '_ {
+    connections.type1().map(|l| (l.a, l.b))
+}
+
+/// What a hierarchy depends on: the particle count, the link count and a
+/// checksum of their ends.
 fn key(connections: &Connections, n: usize) -> (usize, usize, u64) {
     let mut sum = 0u64;
     let mut count = 0;
-    for l in connections.type1() {
+    for (a, b) in links(connections) {
         sum = sum
             .rotate_left(5)
-            .wrapping_add(((l.a as u64) << 32) | l.b as u64);
+            .wrapping_add(((a as u64) << 32) | b as u64);
         count += 1;
     }
     (n, count, sum)
 }
 
-/// Groups `n` particles into about [`AGGREGATES`] connected aggregates over
-/// the Type 1 links of `connections` (module docs); writes each particle's
-/// aggregate into `out` and returns how many there are.
-fn aggregate(connections: &Connections, n: usize, out: &mut Vec<u32>) -> usize {
-    // Neighbours by particle (compressed rows).
-    let mut start = vec![0u32; n + 1];
-    for l in connections.type1() {
-        start[l.a as usize + 1] += 1;
-        start[l.b as usize + 1] += 1;
-    }
-    for i in 0..n {
-        start[i + 1] += start[i];
-    }
-    let mut fill = start.clone();
-    let mut next = vec![0u32; start[n] as usize];
-    for l in connections.type1() {
-        for (p, q) in [(l.a, l.b), (l.b, l.a)] {
-            next[fill[p as usize] as usize] = q;
-            fill[p as usize] += 1;
+/// The graph of `n` nodes joined by `edges` (ends out of range ignored):
+/// each node's neighbours, sorted, without itself.
+fn graph(n: usize, edges: impl Iterator<Item = (u32, u32)>) -> Vec<Vec<u32>> {
+    let mut out = vec![Vec::new(); n];
+    for (a, b) in edges {
+        if a != b && (a as usize) < n && (b as usize) < n {
+            out[a as usize].push(b);
+            out[b as usize].push(a);
         }
     }
-    let neighbours = |p: usize| &next[start[p] as usize..start[p + 1] as usize];
-    // Seeds in breadth-first order of the whole cloth, each piece of it
-    // from the particle its first particle's search reaches last (far
-    // from the rest: the levels run across the cloth, not around it, and
-    // the coupled aggregates stay close in number).
+    for row in &mut out {
+        row.sort_unstable();
+        row.dedup();
+    }
+    out
+}
+
+/// The hierarchy of a cloth of `n` particles over the links of
+/// `connections` (module docs): writes each particle's first-level
+/// aggregate into `grouped` and returns the levels, their graphs made and
+/// their operators empty.
+fn hierarchy(connections: &Connections, n: usize, grouped: &mut Vec<u32>) -> Vec<Level> {
+    let particles = graph(n, links(connections));
+    let count = aggregate(&particles, grouped);
+    let mut neighbours = lift(&particles, grouped, count);
+    let mut levels = Vec::new();
+    loop {
+        let mut level = Level::new(&neighbours);
+        let count = level.count();
+        if count <= COARSEST {
+            levels.push(level);
+            return levels;
+        }
+        let up = aggregate(&neighbours, &mut level.parent);
+        if 4 * up > 3 * count {
+            // Scraps that no longer aggregate: this level is the last.
+            level.parent.clear();
+            levels.push(level);
+            return levels;
+        }
+        let above = lift(&neighbours, &level.parent, up);
+        let next = Level::new(&above);
+        level.lift = (0..count)
+            .flat_map(|i| {
+                let (start, end) = (level.start[i] as usize, level.start[i + 1] as usize);
+                let (parent, next) = (&level.parent, &next);
+                level.above[start..end].iter().map(move |&j| {
+                    let (p, q) = (parent[i] as usize, parent[j as usize] as usize);
+                    if p == q {
+                        NONE
+                    } else {
+                        next.edge(p.min(q), p.max(q)).expect("a lifted edge") as u32
+                    }
+                })
+            })
+            .collect();
+        levels.push(level);
+        neighbours = above;
+    }
+}
+
+/// The graph of `count` aggregates (`parent` of each node of `nodes`):
+/// two are neighbours when nodes of theirs are.
+fn lift(nodes: &[Vec<u32>], parent: &[u32], count: usize) -> Vec<Vec<u32>> {
+    let edges = nodes
+        .iter()
+        .enumerate()
+        .flat_map(|(i, row)| row.iter().map(move |&j| (parent[i], parent[j as usize])));
+    graph(count, edges)
+}
+
+/// Groups the nodes of the graph `neighbours` into connected aggregates of
+/// about [`SIZE`] (module docs); writes each node's aggregate into `out`
+/// and returns how many there are.
+fn aggregate(neighbours: &[Vec<u32>], out: &mut Vec<u32>) -> usize {
+    let n = neighbours.len();
+    // Seeds in breadth-first order of the whole graph, each piece of it
+    // from the node its first node's search reaches last (far from the
+    // rest: the levels run across the cloth, not around it, and the
+    // coupled aggregates stay close in number).
     let mut order = Vec::with_capacity(n);
     let mut seen = vec![false; n];
     let breadth_first = |root: usize, seen: &mut Vec<bool>, order: &mut Vec<u32>| {
@@ -300,7 +454,7 @@ fn aggregate(connections: &Connections, n: usize, out: &mut Vec<u32>) -> usize {
         while k < order.len() {
             let p = order[k] as usize;
             k += 1;
-            for &q in neighbours(p) {
+            for &q in &neighbours[p] {
                 if !std::mem::replace(&mut seen[q as usize], true) {
                     order.push(q);
                 }
@@ -320,11 +474,10 @@ fn aggregate(connections: &Connections, n: usize, out: &mut Vec<u32>) -> usize {
         order.truncate(from);
         breadth_first(far, &mut seen, &mut order);
     }
-    let target = n.div_ceil(AGGREGATES).max(4);
     out.clear();
     out.resize(n, NONE);
     let mut sizes: Vec<usize> = Vec::new();
-    let mut ball = Vec::with_capacity(target);
+    let mut ball = Vec::with_capacity(SIZE);
     for &seed in &order {
         if out[seed as usize] != NONE {
             continue;
@@ -334,11 +487,11 @@ fn aggregate(connections: &Connections, n: usize, out: &mut Vec<u32>) -> usize {
         ball.push(seed);
         out[seed as usize] = id;
         let mut k = 0;
-        while k < ball.len() && ball.len() < target {
+        while k < ball.len() && ball.len() < SIZE {
             let p = ball[k] as usize;
             k += 1;
-            for &q in neighbours(p) {
-                if ball.len() < target && out[q as usize] == NONE {
+            for &q in &neighbours[p] {
+                if ball.len() < SIZE && out[q as usize] == NONE {
                     out[q as usize] = id;
                     ball.push(q);
                 }
@@ -346,15 +499,14 @@ fn aggregate(connections: &Connections, n: usize, out: &mut Vec<u32>) -> usize {
         }
         sizes.push(ball.len());
     }
-    // Small leftovers join a neighbouring aggregate.
+    // A node left alone joins a neighbouring aggregate.
     let mut into: Vec<u32> = (0..sizes.len() as u32).collect();
     for p in 0..n {
         let a = out[p] as usize;
-        if sizes[a] * 3 < target
-            && into[a] == a as u32
-            && let Some(&q) = neighbours(p)
+        if sizes[a] == 1
+            && let Some(&q) = neighbours[p]
                 .iter()
-                .find(|&&q| sizes[out[q as usize] as usize] * 3 >= target)
+                .find(|&&q| sizes[out[q as usize] as usize] > 1)
         {
             into[a] = out[q as usize];
         }
@@ -376,66 +528,4 @@ fn aggregate(connections: &Connections, n: usize, out: &mut Vec<u32>) -> usize {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::sim::topology::{MeshTopology, disc};
-
-    #[test]
-    fn a_disc_groups_into_connected_aggregates_of_similar_size() {
-        let (positions, indices) = disc(1.0, 20);
-        let t = MeshTopology::new(&positions, Some(&indices)).unwrap();
-        let links = t.connections();
-        let mut out = Vec::new();
-        let count = aggregate(&links, t.len(), &mut out);
-        assert!(
-            (AGGREGATES / 2..=2 * AGGREGATES).contains(&count),
-            "{count}"
-        );
-        let mut sizes = vec![0; count];
-        for &a in &out {
-            sizes[a as usize] += 1;
-        }
-        let target = t.len().div_ceil(AGGREGATES);
-        assert!(
-            sizes.iter().all(|&s| s * 3 >= target && s <= 2 * target),
-            "{sizes:?}"
-        );
-    }
-
-    #[test]
-    fn the_profile_factor_solves_the_coarse_system() {
-        // A_c of a chain of aggregates: the factor's solve inverts it.
-        let (positions, indices) = disc(1.0, 10);
-        let t = MeshTopology::new(&positions, Some(&indices)).unwrap();
-        let links = t.connections();
-        let w = vec![1.0; t.len()];
-        let mut c = MeshCoarse::default();
-        assert!(c.begin(&links, &w, 1.0));
-        for l in links.type1() {
-            c.add_pair(l.a as usize, l.b as usize, &[2.0, 2.0, 2.0, 0.5, 0.0, 0.0]);
-        }
-        let size = 3 * c.count;
-        let dense = c.matrix.clone();
-        assert!(c.finish());
-        // r: one particle's unit force; R A_c⁻¹ Rᵀ r solved, then A_c times
-        // the coarse solution gives Rᵀ r back.
-        let mut r = Soa::default();
-        r.resize(t.len());
-        r.set(7, Vec3::new(1.0, -2.0, 0.5));
-        let mut y = Soa::default();
-        y.resize(t.len());
-        c.add(&r, &mut y, &w);
-        let x = c.rc.clone();
-        for i in 0..size {
-            // The dense matrix is symmetric: row i from its lower and upper parts.
-            let row: f64 = (0..size).map(|k| dense[i * size + k] * x[k]).sum();
-            let a = c.aggregate[7] as usize;
-            let want = if i / 3 == a {
-                [1.0, -2.0, 0.5][i % 3]
-            } else {
-                0.0
-            };
-            assert!((row - want).abs() < 1e-9, "row {i}: {row} vs {want}");
-        }
-    }
-}
+mod tests;
