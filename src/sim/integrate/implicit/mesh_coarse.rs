@@ -244,19 +244,22 @@ impl MeshCoarse {
     pub(super) fn add(&mut self, r: &Soa, y: &mut Soa, free: &[f32]) {
         let first = &mut self.levels[0];
         first.r.fill(Vec3A::ZERO);
+        let [rx, ry, rz] = r.0.each_ref().map(|c| &c[..self.aggregate.len()]);
         for (p, &a) in self.aggregate.iter().enumerate() {
             if a != NONE {
-                first.r[a as usize] += Vec3A::from(r.get(p));
+                first.r[a as usize] += Vec3A::new(rx[p], ry[p], rz[p]);
             }
         }
         self.cycle_from(0);
         let e = &self.levels[0].e;
-        for (p, &a) in self.aggregate.iter().enumerate() {
+        let n = self.aggregate.len();
+        let [yx, yy, yz] = y.0.each_mut().map(|c| &mut c[..n]);
+        for (p, (&a, &f)) in self.aggregate.iter().zip(&free[..n]).enumerate() {
             if a != NONE {
-                y.set(
-                    p,
-                    y.get(p) + free[p] * bevy::math::Vec3::from(e[a as usize]),
-                );
+                let c = f * e[a as usize];
+                yx[p] += c.x;
+                yy[p] += c.y;
+                yz[p] += c.z;
             }
         }
     }

@@ -122,16 +122,31 @@ impl Level {
 
     /// `t = r − A e`.
     pub(super) fn residual(&mut self) {
-        let Self { t, r, e, diag, .. } = self;
+        let Self {
+            t,
+            r,
+            e,
+            diag,
+            start,
+            above,
+            off,
+            ..
+        } = self;
         for ((t, &r), (d, &e)) in t.iter_mut().zip(&*r).zip(diag.iter().zip(&*e)) {
             *t = r - *d * e;
         }
-        for i in 0..self.start.len() - 1 {
-            for k in self.start[i] as usize..self.start[i + 1] as usize {
-                let (j, c) = (self.above[k] as usize, self.off[k]);
-                self.t[i] += c * self.e[j];
-                self.t[j] += c * self.e[i];
+        // Row by row: node i's sum kept in a register, its neighbours'
+        // entries written as they come.
+        for (i, ends) in start.windows(2).enumerate() {
+            let edges = ends[0] as usize..ends[1] as usize;
+            let ei = e[i];
+            let mut sum = Vec3A::ZERO;
+            for (&j, c) in above[edges.clone()].iter().zip(&off[edges]) {
+                let j = j as usize;
+                sum += *c * e[j];
+                t[j] += *c * ei;
             }
+            t[i] += sum;
         }
     }
 
