@@ -43,12 +43,13 @@ use super::operator::{Soa, rank_block, sym_matrix, sym_of};
 use crate::sim::model::jacobian::Block;
 use crate::sim::model::streams::StreamBlocks;
 use factor::Banded;
+pub(super) use level::invert_diagonal;
 use level::{Level, SLOTS};
 
 mod factor;
 mod level;
 #[cfg(test)]
-mod tests;
+pub(super) mod tests;
 
 /// Aggregates on the coarsest level at most.
 pub const COARSEST: usize = 64;

@@ -115,18 +115,7 @@ impl Level {
     /// Inverts the diagonal blocks of the filled nodes; `false` if one is
     /// not invertible (a coarse operator that is not positive definite).
     pub(super) fn invert(&mut self) -> bool {
-        self.inverse.clear();
-        let mut ok = true;
-        self.inverse
-            .extend(self.diag.iter().zip(&self.filled).map(|(d, &filled)| {
-                if !filled {
-                    return Mat3A::ZERO;
-                }
-                let det = d.determinant();
-                ok &= det > 0.0 && det.is_finite() && d.x_axis.x > 0.0;
-                if ok { d.inverse() } else { Mat3A::ZERO }
-            }));
-        ok
+        invert_diagonal(&self.diag, &self.filled, &mut self.inverse)
     }
 
     /// `t = r − A e`.
@@ -190,4 +179,25 @@ impl Level {
             }
         }
     }
+}
+
+/// Writes into `inverse` the inverses of the `diag` blocks of the filled
+/// nodes (zero at the others); `false` if one is not invertible (a coarse
+/// operator that is not positive definite).
+pub(in super::super) fn invert_diagonal(
+    diag: &[Mat3A],
+    filled: &[bool],
+    inverse: &mut Vec<Mat3A>,
+) -> bool {
+    inverse.clear();
+    let mut ok = true;
+    inverse.extend(diag.iter().zip(filled).map(|(d, &filled)| {
+        if !filled {
+            return Mat3A::ZERO;
+        }
+        let det = d.determinant();
+        ok &= det > 0.0 && det.is_finite() && d.x_axis.x > 0.0;
+        if ok { d.inverse() } else { Mat3A::ZERO }
+    }));
+    ok
 }

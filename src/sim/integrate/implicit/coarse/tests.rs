@@ -23,7 +23,7 @@ fn hierarchy(n: u32) -> (Operator, Coarse) {
 }
 
 /// An irregular vector of `count` entries (dimensionless).
-fn irregular(count: usize, seed: f32) -> Vec<Vec3A> {
+pub(in super::super) fn irregular(count: usize, seed: f32) -> Vec<Vec3A> {
     (0..count)
         .map(|i| {
             let s = i as f32 + seed;

@@ -3,6 +3,7 @@
 
 use bevy::math::{Mat3A, Vec3A};
 
+use super::super::coarse::invert_diagonal;
 use super::{NONE, OMEGA};
 
 /// One level: a graph of nodes (fixed while the links stay the same) and
@@ -106,18 +107,7 @@ impl Level {
     /// Inverts the diagonal blocks of the filled nodes; `false` if one is
     /// not invertible (an operator that is not positive definite).
     pub(super) fn invert(&mut self) -> bool {
-        self.inverse.clear();
-        let mut ok = true;
-        self.inverse
-            .extend(self.diag.iter().zip(&self.filled).map(|(d, &filled)| {
-                if !filled {
-                    return Mat3A::ZERO;
-                }
-                let det = d.determinant();
-                ok &= det > 0.0 && det.is_finite() && d.x_axis.x > 0.0;
-                if ok { d.inverse() } else { Mat3A::ZERO }
-            }));
-        ok
+        invert_diagonal(&self.diag, &self.filled, &mut self.inverse)
     }
 
     /// `t = r − A e`.

@@ -3,6 +3,7 @@
 
 use bevy::math::Vec3;
 
+use super::super::coarse::tests::irregular;
 use super::*;
 use crate::sim::topology::{MeshTopology, disc};
 
@@ -36,15 +37,6 @@ fn disc_hierarchy(rings: u32, pinned: impl Fn(usize) -> bool) -> (Connections, M
     }
     assert!(c.finish());
     (links, c)
-}
-
-fn irregular(count: usize, seed: f32) -> Vec<Vec3A> {
-    (0..count)
-        .map(|i| {
-            let s = i as f32 + seed;
-            Vec3A::new((1.7 * s).sin(), (0.3 * s).cos(), (2.9 * s).sin() * 0.5)
-        })
-        .collect()
 }
 
 /// `A e` on level `l`, from its residual with `r = 0`.
