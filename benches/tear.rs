@@ -129,22 +129,8 @@ impl Banner {
             .expect("a cloth")
             .len();
         let links = world.get::<ClothConnections>(self.cloth).expect("a cloth");
-        let mut parent: Vec<usize> = (0..n).collect();
-        fn root(parent: &mut [usize], mut i: usize) -> usize {
-            while parent[i] != i {
-                parent[i] = parent[parent[i]];
-                i = parent[i];
-            }
-            i
-        }
-        for l in links.type1() {
-            let (a, b) = (
-                root(&mut parent, l.a as usize),
-                root(&mut parent, l.b as usize),
-            );
-            parent[a] = b;
-        }
-        (0..n).filter(|&i| root(&mut parent, i) == i).count()
+        let pieces = links.pieces(n);
+        pieces.iter().max().map_or(0, |&m| m as usize + 1)
     }
 }
 

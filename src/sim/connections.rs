@@ -220,6 +220,41 @@ impl Connections {
             }))
             .max()
     }
+
+    /// The piece of each of `n` particles: the particles that Type 1 links
+    /// join, directly or through others, are one piece. Pieces are
+    /// numbered 0, 1, … in the order of their first particle, so the
+    /// largest number plus one is how many there are: a whole cloth is one
+    /// piece, and a torn one falls apart into several of the same entity.
+    /// Links to particles past `n` are ignored.
+    pub fn pieces(&self, n: usize) -> Vec<u32> {
+        fn root(parent: &mut [u32], mut i: u32) -> u32 {
+            while parent[i as usize] != i {
+                parent[i as usize] = parent[parent[i as usize] as usize];
+                i = parent[i as usize];
+            }
+            i
+        }
+        let mut parent: Vec<u32> = (0..n as u32).collect();
+        for l in self.type1() {
+            if (l.a as usize) < n && (l.b as usize) < n {
+                let (a, b) = (root(&mut parent, l.a), root(&mut parent, l.b));
+                parent[a.max(b) as usize] = a.min(b);
+            }
+        }
+        let mut number = vec![u32::MAX; n];
+        let mut count = 0;
+        (0..n as u32)
+            .map(|i| {
+                let r = root(&mut parent, i) as usize;
+                if number[r] == u32::MAX {
+                    number[r] = count;
+                    count += 1;
+                }
+                number[r]
+            })
+            .collect()
+    }
 }
 
 /// The largest relative stretch `(ℓ − L)/L` over `links` (dimensionless);
@@ -247,6 +282,24 @@ mod tests {
         (0..rows)
             .flat_map(|j| (0..cols).map(move |i| Vec3::new(i as f32 * h, 0.0, j as f32 * h)))
             .collect()
+    }
+
+    #[test]
+    fn pieces_are_the_particles_type_1_links_join() {
+        let mut c = Connections::grid(3, 3, &flat(3, 3, 1.0));
+        assert_eq!(c.pieces(9), vec![0; 9]);
+        // Particle 3 (an edge's middle) and the corner 8 cut loose; bend
+        // links (Type 2) do not join.
+        c.structural
+            .retain(|l| ![3, 8].contains(&l.a) && ![3, 8].contains(&l.b));
+        c.shear
+            .retain(|l| ![3, 8].contains(&l.a) && ![3, 8].contains(&l.b));
+        assert!(c.type2().any(|l| l.a == 3 || l.b == 3));
+        assert_eq!(c.pieces(9), vec![0, 0, 0, 1, 0, 0, 0, 0, 2]);
+        // A link to a particle past the count is ignored.
+        c.structural.push(Link::from_rest(0, 20, &flat(5, 5, 1.0)));
+        assert_eq!(c.pieces(9)[0], 0);
+        assert!(Connections::default().pieces(0).is_empty());
     }
 
     #[test]
