@@ -29,7 +29,7 @@
 //!   cloth whose pieces are too many to aggregate that far (a cloth cut
 //!   into scraps) takes a block-Jacobi sweep there instead.
 
-use bevy::math::{Mat3A, Vec3A};
+use bevy::math::{Mat3A, Vec3, Vec3A};
 
 use super::coarse::joining_pairs;
 use super::operator::{Soa, sym_matrix};
@@ -110,8 +110,7 @@ impl MeshCoarse {
         first.reset();
         for (&a, &w) in self.aggregate.iter().zip(inverse_masses) {
             if a != NONE {
-                first.diag[a as usize] +=
-                    Mat3A::from_diagonal(bevy::math::Vec3::splat(mass_scale / w));
+                first.diag[a as usize] += Mat3A::from_diagonal(Vec3::splat(mass_scale / w));
                 first.filled[a as usize] = true;
             }
         }

@@ -1,8 +1,6 @@
 //! Unit tests of the mesh hierarchy: aggregates, Galerkin levels, a
 //! symmetric positive definite correction, exact on one level, and scraps.
 
-use bevy::math::Vec3;
-
 use super::super::coarse::tests::irregular;
 use super::*;
 use crate::sim::topology::{MeshTopology, disc};
