@@ -85,9 +85,10 @@ pub enum ClothError {
     #[error("invalid collider: {0}")]
     InvalidCollider(&'static str),
     /// The implicit solve needs a tolerance in (0, 1), at least one
-    /// iteration and a finite, non-negative Newton strain.
+    /// iteration, a finite, non-negative Newton strain and a positive strain
+    /// limit (infinite turns it off).
     #[error(
-        "the implicit solver needs a tolerance in (0, 1), at least one iteration and a finite, non-negative newton_strain"
+        "the implicit solver needs a tolerance in (0, 1), at least one iteration, a finite, non-negative newton_strain and a strain_limit > 0"
     )]
     InvalidSolver,
     /// A crease is invalid (non-finite, ratio outside (0, 1], angle outside

@@ -157,6 +157,7 @@ pub(crate) struct StepQuery {
     )>,
     tethers: Option<(Ref<'static, ClothTethers>, &'static mut TetherScratch)>,
     to_cloth: Option<&'static mut ClothToClothScratch>,
+    tearing: bevy::ecs::query::Has<crate::plugin::tear::ClothTearing>,
 }
 
 impl StepQueryItem<'_, '_> {
@@ -289,7 +290,13 @@ pub(crate) fn step_cloths(
     for_each_cloth(&mut cloths, |mut item| {
         let base = item.settings.as_deref().map_or(&defaults.0, |own| &own.0);
         let material = item.material.as_deref().copied().unwrap_or_default();
-        let settings = &*material.settings(base, item.cloth.spacing());
+        let mut settings = material.settings(base, item.cloth.spacing());
+        if item.tearing {
+            // A strain limit would hold every thread short of its tear
+            // strain: a tearing cloth's threads stretch as its forces say.
+            settings.to_mut().implicit.strain_limit = f32::INFINITY;
+        }
+        let settings = &*settings;
         let connections: &ClothConnections = &item.connections;
         let max_index = item.scratch.measured.max_index(&item.connections, now);
         item.scratch.measured.strain = None;

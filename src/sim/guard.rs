@@ -20,12 +20,15 @@
 //!    the last retry switches to the [`GuardSettings::fallback`] integrator
 //!    (backward Euler by default, stable at any step).
 //! 4. **Strain spikes.** An implicit step that strained a Type 1 link past
-//!    [`SPIKE_STRAIN`] and [`SPIKE_GROWTH`] times what the last step left,
-//!    after its Newton corrections, did so because it was linearised where
-//!    it started: a stiff or fine sheet let go horizontal pulls on its
-//!    pins with no stiffness across its plane in the linearisation, and a
-//!    256×256 cotton sheet's first step stretched its corner links 21 %.
-//!    Such a step is undone and redone in twice the substeps, up to
+//!    [`SPIKE_STRAIN`] and [`SPIKE_GROWTH`] times what the last step left
+//!    did so because it was linearised where it started: a stiff or fine
+//!    sheet let go horizontal pulls on its pins with no stiffness across
+//!    its plane in the linearisation, and a 256×256 cotton sheet's first
+//!    step stretched its corner links 21 %. The strain limit
+//!    ([`ImplicitParams::strain_limit`](crate::sim::settings::ImplicitParams::strain_limit),
+//!    after any Newton corrections) shortens such links again. A step it
+//!    could not bring below the spike (turned off, or contacts held in the
+//!    solve) is undone and redone in twice the substeps, up to
 //!    [`SPIKE_SUBSTEPS`], quietly (no message: nothing diverged), and the
 //!    boost relaxes as below.
 //! 5. **Never frozen.** If the last retry still trips on a finite state
@@ -65,6 +68,7 @@ use crate::sim::particles::Particles;
 pub use crate::sim::settings::{Fallback, GuardSettings};
 use crate::sim::settings::{Integrator, MAX_SUBSTEPS, SimSettings};
 use crate::sim::step::{ContactHook, NoContacts, Substep, step_cloth_with};
+use crate::sim::strain_limit::{MAX_SWEEPS, limit_strain};
 use crate::sim::team::{self, SPLIT_PARTICLES};
 
 /// Why the guard tripped.
@@ -621,16 +625,20 @@ struct Refine<'a> {
 /// [`ImplicitParams::newton_strain`](crate::sim::settings::ImplicitParams::newton_strain)
 /// and by a fifth more than the last step left, each followed by the
 /// contact `hook` and the check; an iteration that does not lower the
-/// strain is undone. Returns the last check's result.
+/// strain is undone. Then, if a Type 1 link is still strained past
+/// [`ImplicitParams::strain_limit`](crate::sim::settings::ImplicitParams::strain_limit),
+/// the links are shortened to it ([`limit_strain`]), followed by the hook
+/// and the check. Neither runs on a step whose solve held contacts.
+/// Returns the last check's result.
 fn refine<H: ContactHook>(
-    r: Refine,
+    mut r: Refine,
     state: &mut GuardState,
     mut hook: Option<&mut H>,
     mut checked: (Option<Divergence>, Option<f32>),
 ) -> (Option<Divergence>, Option<f32>) {
     if r.buffers.implicit.contacts.any() {
-        // Its contacts were held inside the solve: a Newton iteration
-        // without them would let go of them.
+        // Its contacts were held inside the solve: a Newton iteration or
+        // the strain limit, without them, would let go of them.
         return checked;
     }
     let params = r.settings.implicit;
@@ -663,18 +671,7 @@ fn refine<H: ContactHook>(
             workers: &r.buffers.workers,
         };
         newton_correction(&dynamics, positions, velocities, &mut r.buffers.implicit);
-        if let Some(hook) = hook.as_mut() {
-            let n = r.settings.substeps.max(1) as f32;
-            let sub = Substep {
-                from: (n - 1.0) / n,
-                to: 1.0,
-                dt: r.dt / n,
-            };
-            let start = &r.buffers.substep_start;
-            if start.len() == positions.len() {
-                hook.resolve(sub, start, positions, velocities, inverse_masses, &[]);
-            }
-        }
+        resolve_last(&mut r, hook.as_deref_mut());
         let next = check_measured(r.particles, r.connections, &guard, r.helper);
         let better = match next {
             (Some(Divergence::NonFinite), _) => false,
@@ -688,7 +685,56 @@ fn refine<H: ContactHook>(
         }
         checked = next;
     }
+    let strain = match checked {
+        (Some(Divergence::NonFinite), _) => return checked,
+        (_, Some(s)) => s,
+        _ => max_strain(r.connections.type1(), &r.particles.positions),
+    };
+    let n = r.particles.positions.len();
+    if strain > params.strain_limit
+        && let Some(gamma) = r.buffers.implicit.step_gamma(n)
+    {
+        let p = &mut *r.particles;
+        limit_strain(
+            &[&r.connections.structural, &r.connections.shear],
+            &mut p.positions,
+            &mut p.velocities,
+            &p.inverse_masses,
+            gamma,
+            params.strain_limit,
+            MAX_SWEEPS,
+        );
+        r.buffers.implicit.moved_to(&p.positions);
+        resolve_last(&mut r, hook);
+        checked = check_measured(r.particles, r.connections, &guard, r.helper);
+    }
     checked
+}
+
+/// The contact `hook` over the last substep again, after [`refine`] moved
+/// the particles.
+fn resolve_last<H: ContactHook>(r: &mut Refine, hook: Option<&mut H>) {
+    let Some(hook) = hook else {
+        return;
+    };
+    let n = r.settings.substeps.max(1) as f32;
+    let sub = Substep {
+        from: (n - 1.0) / n,
+        to: 1.0,
+        dt: r.dt / n,
+    };
+    let start = &r.buffers.substep_start;
+    let p = &mut *r.particles;
+    if start.len() == p.positions.len() {
+        hook.resolve(
+            sub,
+            start,
+            &mut p.positions,
+            &mut p.velocities,
+            &p.inverse_masses,
+            &[],
+        );
+    }
 }
 
 /// The result of a step whose every retry tripped.

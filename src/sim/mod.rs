@@ -64,6 +64,7 @@ pub mod skin;
 pub mod sleep;
 pub(crate) mod soa;
 pub mod step;
+pub mod strain_limit;
 pub(crate) mod team;
 pub mod tear;
 pub mod tether;

@@ -158,14 +158,31 @@ pub struct ImplicitParams {
     /// whose end state strains a Type 1 link past
     /// [`newton_strain`](Self::newton_strain): a step that moves the cloth
     /// far from where its forces were linearised (a storm's first gust on
-    /// a slack sheet) is solved again where it ended. 0 turns it off.
+    /// a slack sheet) is solved again where it ended, before the
+    /// [`strain_limit`](Self::strain_limit) applies. 0 (the default) turns
+    /// them off: each is a solve of its own, ten times tighter, and one
+    /// that starts far from the solution can diverge (it is then undone),
+    /// while the strain limit holds the strain for a few sweeps over the
+    /// links.
     pub newton_iterations: u32,
     /// The Type 1 strain (dimensionless) above which a step gets its extra
     /// Newton iterations, if it also grew by a fifth since the last step;
     /// their solves use tolerances ten times tighter
     /// ([`NEWTON_TOLERANCE`](crate::sim::integrate::implicit::NEWTON_TOLERANCE)).
-    /// 5 % by default: a sheet swinging from two corners stays under it.
+    /// 5 % by default.
     pub newton_strain: f32,
+    /// The largest Type 1 strain (dimensionless) an implicit step may leave
+    /// ([`strain_limit`](crate::sim::strain_limit)): links stretched past it
+    /// at the end of a step are shortened to it and their particles'
+    /// velocities follow, unless the solve held contacts that step. The
+    /// step is linearised where it starts, so a stiff or fine sheet let go
+    /// horizontal would stretch the links at its pins far past what its
+    /// forces allow (a fifth at 256×256). 5 % by default;
+    /// `f32::INFINITY` turns it off. A cloth with
+    /// [`ClothTearing`](crate::plugin::tear::ClothTearing) is not limited:
+    /// its threads must be free to reach their tear strain (15 % for
+    /// cotton), and the guard's strain-spike rule takes its place.
+    pub strain_limit: f32,
 }
 
 impl Default for ImplicitParams {
@@ -178,8 +195,9 @@ impl Default for ImplicitParams {
             slack_stiffness: SlackStiffness::Auto,
             coarse_grid: true,
             helper_thread: true,
-            newton_iterations: 3,
+            newton_iterations: 0,
             newton_strain: 0.05,
+            strain_limit: 0.05,
         }
     }
 }
@@ -485,6 +503,8 @@ impl SimSettings {
         if !(tolerance.is_finite() && tolerance > 0.0 && tolerance < 1.0)
             || self.implicit.max_iterations == 0
             || !(self.implicit.newton_strain.is_finite() && self.implicit.newton_strain >= 0.0)
+            || self.implicit.strain_limit.is_nan()
+            || self.implicit.strain_limit <= 0.0
             || !(self.implicit.velocity_tolerance.is_finite()
                 && self.implicit.velocity_tolerance >= 0.0)
         {
@@ -596,5 +616,19 @@ mod tests {
             bad(|s| s.lander.shear.damping = f32::NAN),
             ClothError::InvalidDamping { .. }
         ));
+        for limit in [0.0, -0.05, f32::NAN, f32::NEG_INFINITY] {
+            let mut s = SimSettings::default();
+            s.implicit.strain_limit = limit;
+            assert!(
+                matches!(s.validate(), Err(ClothError::InvalidSolver)),
+                "{limit}"
+            );
+        }
+        let mut off = SimSettings::default();
+        off.implicit.strain_limit = f32::INFINITY;
+        assert!(
+            off.validate().is_ok(),
+            "an infinite strain limit turns it off"
+        );
     }
 }

@@ -156,6 +156,21 @@ impl ImplicitBuffers {
         }
     }
 
+    /// How the last step's end position changes with its end velocity,
+    /// `γ` in `x₁ = a + γv₁` (s: `h` for backward Euler, `⅔h` for BDF2),
+    /// if that step was taken for `n` particles.
+    pub(crate) fn step_gamma(&self, n: usize) -> Option<f32> {
+        (n == self.target_v.len() && self.gamma > 0.0).then_some(self.gamma)
+    }
+
+    /// Records that the last step's end state moved to `x` (m), for the
+    /// next BDF2 step's check of its history.
+    pub(crate) fn moved_to(&mut self, x: &[Vec3]) {
+        if x.len() == self.expected_x.len() {
+            self.expected_x.copy_from_slice(x);
+        }
+    }
+
     /// Forgets the BDF2 history, so the next BDF2 step is backward Euler,
     /// and the contacts' holds.
     pub fn reset_history(&mut self) {
