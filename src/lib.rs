@@ -90,12 +90,12 @@ pub use crate::error::ClothError;
 pub use crate::plugin::ClothPlugin;
 pub use crate::plugin::anchor::{Anchor, ClothAnchors};
 pub use crate::plugin::builder::{ClothBuilder, ClothBundle};
+pub use crate::plugin::components::check_cloth;
 pub use crate::plugin::components::{
     Cloth, ClothConnections, ClothDefaults, ClothForces, ClothParticles, ClothSettings, ClothStats,
 };
 pub use crate::plugin::material::ClothMaterial;
 pub use crate::plugin::schedule::ClothSystems;
-pub use crate::plugin::systems::check_cloth;
 pub use crate::sim::connections::Link;
 pub use crate::sim::grid::{GridCorner, GridEdge};
 pub use crate::sim::material::Fabric;

@@ -9,6 +9,7 @@ use bevy::prelude::{
     Resource,
 };
 
+use crate::error::ClothError;
 use crate::plugin::mesh_cloth::MeshLayout;
 use crate::sim::connections::{Connections, max_strain};
 use crate::sim::grid::{Faces, Grid};
@@ -292,5 +293,35 @@ impl ClothStats {
         self.kinetic_energy = particles.kinetic_energy();
         self.max_speed = particles.max_speed();
         self.finite = particles.is_finite();
+    }
+}
+
+/// Checks what the step indexes so that user edits can never make it panic:
+/// equal array lengths, and every link inside the particle range.
+pub fn check_cloth(
+    particles: &ClothParticles,
+    connections: &ClothConnections,
+) -> Result<(), ClothError> {
+    check_indices(particles, connections.max_index())
+}
+
+/// [`check_cloth`] given the connections' largest index.
+pub(crate) fn check_indices(
+    particles: &ClothParticles,
+    max_index: Option<u32>,
+) -> Result<(), ClothError> {
+    let n = particles.len();
+    if particles.velocities.len() != n
+        || particles.inverse_masses.len() != n
+        || particles.masses.len() != n
+    {
+        return Err(ClothError::InconsistentParticles);
+    }
+    match max_index {
+        Some(index) if index as usize >= n => Err(ClothError::ParticleOutOfRange {
+            index,
+            count: n as u32,
+        }),
+        _ => Ok(()),
     }
 }

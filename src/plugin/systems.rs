@@ -15,7 +15,6 @@ use crate::sim::team;
 use crate::sim::workers::{Pool, Workers};
 use bevy::time::Fixed;
 
-use crate::error::ClothError;
 use crate::plugin::components::ClothConnections;
 use crate::plugin::components::ClothParticles;
 use crate::plugin::components::{ClothDefaults, ClothSettings};
@@ -30,6 +29,8 @@ use crate::plugin::collision::{
     SelfCollisionScratch, SleepWatch, bounds,
 };
 use crate::plugin::components::Cloth;
+pub use crate::plugin::components::check_cloth;
+use crate::plugin::components::check_indices;
 use crate::plugin::components::{ClothForces, ClothStats};
 use crate::plugin::events::ClothDiverged;
 use crate::plugin::interaction::ClothGrabs;
@@ -40,33 +41,6 @@ use crate::plugin::wind::ClothWind;
 use crate::sim::guard::{StepInput, step_guarded};
 use crate::sim::lod::{Detail, pin_carry, ride_pins};
 use crate::sim::sleep::{RestChange, RestTracker};
-
-/// Checks what the step indexes so that user edits can never make it panic:
-/// equal array lengths, and every link inside the particle range.
-pub fn check_cloth(
-    particles: &ClothParticles,
-    connections: &ClothConnections,
-) -> Result<(), ClothError> {
-    check_indices(particles, connections.max_index())
-}
-
-/// [`check_cloth`] given the connections' largest index.
-fn check_indices(particles: &ClothParticles, max_index: Option<u32>) -> Result<(), ClothError> {
-    let n = particles.len();
-    if particles.velocities.len() != n
-        || particles.inverse_masses.len() != n
-        || particles.masses.len() != n
-    {
-        return Err(ClothError::InconsistentParticles);
-    }
-    match max_index {
-        Some(index) if index as usize >= n => Err(ClothError::ParticleOutOfRange {
-            index,
-            count: n as u32,
-        }),
-        _ => Ok(()),
-    }
-}
 
 /// What the step measured of a cloth that the writeback reuses while the
 /// cloth has not changed since: each scan takes some 20–30 µs on a 64×64

@@ -248,7 +248,7 @@ pub(crate) fn tear_cloths(
         let entity = item.entity;
         let x = &item.particles.positions;
         if x.len() != item.cloth.len()
-            || crate::plugin::systems::check_cloth(&item.particles, &item.connections).is_err()
+            || crate::plugin::components::check_cloth(&item.particles, &item.connections).is_err()
             || !item.particles.is_finite()
         {
             continue;

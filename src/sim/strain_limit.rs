@@ -73,7 +73,7 @@ pub fn limit_strain(
             let (a, b) = (l.a as usize, l.b as usize);
             let d = x[b] - x[a];
             let len = d.length();
-            if !(len > (1.0 + bound) * l.rest_length) || !len.is_finite() {
+            if !len.is_finite() || len <= (1.0 + bound) * l.rest_length {
                 continue;
             }
             let (wa, wb) = (w[a], w[b]);
