@@ -4,18 +4,18 @@
 //! An implicit step is linearised where it starts. A stiff or fine sheet let
 //! go horizontal pulls on its pins with no stiffness across its plane in that
 //! linearisation (a straight link under no tension has no transverse
-//! stiffness), so its first steps stretch the links at the pins by up to a
-//! fifth at 256×256 — far more than its forces allow. Newton corrections
-//! re-linearise where the step ended, but from so far away they can diverge.
-//! [`limit_strain`] projects such links back: Gauss–Seidel sweeps over the
-//! Type 1 links, each over-stretched link shortened to `(1 + bound)` times
-//! its rest length, its particles moved in proportion to their inverse
-//! masses (a pinned particle does not move), and each particle's velocity
-//! changed by its displacement over the step, `Δv = Δx / h`, as backward
-//! Euler's `x₁ = x₀ + h v₁` requires (`Δx / ⅔h` for BDF2). Moving particles
-//! along their links, weighted by inverse mass, keeps the cloth's momentum.
-//! It is the strain limiting of Provot (1995) applied after an implicit
-//! step.
+//! stiffness), so at 256×256 its first step stretches the links at the pins
+//! by a fifth, and the next ones more: far more than its forces allow.
+//! Newton corrections re-linearise where the step ended, but from so far
+//! away they can diverge. [`limit_strain`] projects such links back:
+//! Gauss–Seidel sweeps over the Type 1 links, each link stretched past
+//! `(1 + bound)` times its rest length shortened to just under that, its
+//! particles moved in proportion to their inverse masses (a pinned particle
+//! does not move), and each particle's velocity changed by its displacement
+//! over the step, `Δv = Δx / h`, as backward Euler's `x₁ = x₀ + h v₁`
+//! requires (`Δx / ⅔h` for BDF2). Moving particles along their links,
+//! weighted by inverse mass, keeps the cloth's momentum. It is the strain
+//! limiting of Provot (1995) applied after an implicit step.
 
 use bevy::math::Vec3;
 
