@@ -4,7 +4,8 @@
 //! the particles' state ([`particles`]), every parameter of a step
 //! ([`settings`], [`material`]), the force models ([`model`]), the
 //! integrators ([`integrate`]), a step as a function ([`step`]), the
-//! divergence guard around it ([`guard`]), adaptive substeps
+//! divergence guard around it ([`guard`]), the strain limit after an
+//! implicit step ([`strain_limit`]), adaptive substeps
 //! ([`adaptive`]), the narrow phase and contacts ([`collision`]), creases'
 //! geometry ([`crease`]), wind on faces ([`wind`]), the particles and links of
 //! a cloth of any shape ([`topology`]), tearing and cutting it ([`tear`]), tethers to the pins ([`tether`]), a
