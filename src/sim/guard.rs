@@ -647,10 +647,8 @@ fn refine<H: ContactHook>(
         .max(1.2 * state.last_strain.unwrap_or(0.0));
     let guard = r.settings.guard;
     for _ in 0..params.newton_iterations {
-        let strain = match checked {
-            (Some(Divergence::NonFinite), _) => break,
-            (_, Some(s)) => s,
-            _ => max_strain(r.connections.type1(), &r.particles.positions),
+        let Some(strain) = strain_after(checked, &r) else {
+            break;
         };
         if strain.is_nan() || strain <= trigger {
             break;
@@ -673,22 +671,15 @@ fn refine<H: ContactHook>(
         newton_correction(&dynamics, positions, velocities, &mut r.buffers.implicit);
         resolve_last(&mut r, hook.as_deref_mut());
         let next = check_measured(r.particles, r.connections, &guard, r.helper);
-        let better = match next {
-            (Some(Divergence::NonFinite), _) => false,
-            (_, Some(s)) => s < strain,
-            _ => max_strain(r.connections.type1(), &r.particles.positions) < strain,
-        };
-        if !better {
+        if !strain_after(next, &r).is_some_and(|s| s < strain) {
             r.particles.positions.clone_from(&state.newton_x);
             r.particles.velocities.clone_from(&state.newton_v);
             break;
         }
         checked = next;
     }
-    let strain = match checked {
-        (Some(Divergence::NonFinite), _) => return checked,
-        (_, Some(s)) => s,
-        _ => max_strain(r.connections.type1(), &r.particles.positions),
+    let Some(strain) = strain_after(checked, &r) else {
+        return checked;
     };
     let n = r.particles.positions.len();
     if strain > params.strain_limit
@@ -709,6 +700,17 @@ fn refine<H: ContactHook>(
         checked = check_measured(r.particles, r.connections, &guard, r.helper);
     }
     checked
+}
+
+/// The worst Type 1 strain (dimensionless) of the particles `checked` was
+/// made of, measured if the check did not; `None` if it found non-finite
+/// values.
+fn strain_after(checked: (Option<Divergence>, Option<f32>), r: &Refine) -> Option<f32> {
+    match checked {
+        (Some(Divergence::NonFinite), _) => None,
+        (_, Some(s)) => Some(s),
+        _ => Some(max_strain(r.connections.type1(), &r.particles.positions)),
+    }
 }
 
 /// The contact `hook` over the last substep again, after [`refine`] moved
