@@ -9,7 +9,8 @@ use bevy::ecs::message::Messages;
 use bevy::prelude::*;
 use bevy_cloth::plugin::events::ClothDiverged;
 use bevy_cloth::prelude::*;
-use bevy_cloth::sim::guard::{Fallback, GuardSettings};
+use bevy_cloth::sim::guard::{Fallback, GuardSettings, GuardState, StepInput, step_guarded};
+use bevy_cloth::sim::integrate::StepBuffers;
 use bevy_cloth::sim::settings::Parallelism;
 use common::{app, hanging, particles};
 
@@ -202,4 +203,39 @@ fn a_boost_is_probed_again_later_and_kept_while_it_is_needed() {
     assert!(particles(&app, cloth).is_finite());
     let stats = app.world().get::<ClothStats>(cloth).unwrap();
     assert!(stats.substeps >= 8 && stats.max_strain < 0.05, "{stats:?}");
+}
+
+/// One guarded step of the paper's hanging cloth (9×9) whose bottom-middle
+/// particle is pinned `down` m below where it hangs, with the strain limit
+/// at `limit`: the positions (m) and velocities (m/s) the step leaves.
+fn held_stretched_step(down: f32, limit: f32) -> (Vec<Vec3>, Vec<Vec3>) {
+    let mut cloth = hanging(9);
+    let bottom = 76;
+    cloth.particles.positions[bottom].y -= down;
+    assert!(cloth.particles.pin(bottom));
+    let mut settings = SimSettings::default();
+    settings.implicit.strain_limit = limit;
+    let (mut buffers, mut guard) = (StepBuffers::default(), GuardState::default());
+    step_guarded(StepInput::new(
+        &mut cloth.particles,
+        &cloth.connections,
+        &settings,
+        &mut buffers,
+        &mut guard,
+        1.0 / 60.0,
+    ));
+    let p = &cloth.particles;
+    (p.positions.clone(), p.velocities.clone())
+}
+
+#[test]
+fn links_held_stretched_between_pins_leave_the_step_as_its_solve_made_it() {
+    // No sweep can bring the links between the top pins and the particle
+    // pinned below them to the 5 % limit: the step is the one without a
+    // limit, not the sweeps' partial moves.
+    // (0.2 m: the sweeps stop with links still 33 % long.)
+    let (x, v) = held_stretched_step(0.2, SimSettings::default().implicit.strain_limit);
+    let (free_x, free_v) = held_stretched_step(0.2, f32::INFINITY);
+    assert_eq!(x, free_x);
+    assert_eq!(v, free_v);
 }

@@ -628,7 +628,9 @@ struct Refine<'a> {
 /// strain is undone. Then, if a Type 1 link is still strained past
 /// [`ImplicitParams::strain_limit`](crate::sim::settings::ImplicitParams::strain_limit),
 /// the links are shortened to it ([`limit_strain`]), followed by the hook
-/// and the check. Neither runs on a step whose solve held contacts.
+/// and the check; sweeps that stop with a link still past the bound (held
+/// stretched between pins) are undone. Neither runs on a step whose solve
+/// held contacts.
 /// Returns the last check's result.
 fn refine<H: ContactHook>(
     mut r: Refine,
@@ -686,7 +688,9 @@ fn refine<H: ContactHook>(
         && let Some(gamma) = r.buffers.implicit.step_gamma(n)
     {
         let p = &mut *r.particles;
-        limit_strain(
+        state.newton_x.clone_from(&p.positions);
+        state.newton_v.clone_from(&p.velocities);
+        let limited = limit_strain(
             &[&r.connections.structural, &r.connections.shear],
             &mut p.positions,
             &mut p.velocities,
@@ -695,6 +699,15 @@ fn refine<H: ContactHook>(
             params.strain_limit,
             MAX_SWEEPS,
         );
+        if limited.strain > 0.0 {
+            // Links no sweep can bring to the bound (held stretched between
+            // pinned or grabbed particles): the sweeps' partial moves would
+            // only crumple the cloth around them, so the step stands as
+            // the solve left it.
+            p.positions.clone_from(&state.newton_x);
+            p.velocities.clone_from(&state.newton_v);
+            return checked;
+        }
         r.buffers.implicit.moved_to(&p.positions);
         resolve_last(&mut r, hook);
         checked = check_measured(r.particles, r.connections, &guard, r.helper);
@@ -798,7 +811,8 @@ pub struct GuardState {
     /// Steps the cloth has stayed above the bound without relaxing, with
     /// colliders near (see [`SNAGGED_STEPS`]).
     snagged: u32,
-    /// The state before an extra Newton iteration, to undo it.
+    /// The state before an extra Newton iteration or the strain limit's
+    /// sweeps, to undo them.
     newton_x: Vec<Vec3>,
     newton_v: Vec<Vec3>,
     /// Substeps and integrator the guard moved the cloth to.
