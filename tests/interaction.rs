@@ -172,9 +172,10 @@ fn folds(x: &[Vec3], n: usize) -> usize {
 /// The `web` example's scene and its browser check's drag, every default: a
 /// 16×16, 1 m cotton cloth pinned at two corners hangs over a ball; the
 /// particle under the pointer is grabbed and carried about 0.5 m across and
-/// 0.2 m down, far more than the cloth between it and the pins can stretch, then let
-/// go. The target moves every `every` steps (1: a smooth drag; 15: a
-/// browser's 4 frames a second). Returns the sharp folds 8 s after the release.
+/// 0.2 m down, far more than the cloth between it and the pins can
+/// stretch, then let go. The target moves every `every` steps (1: a smooth
+/// drag; 15: a browser's 4 frames a second). Returns the sharp folds 8 s
+/// after the release.
 fn folds_after_an_overstretching_drag(every: usize) -> usize {
     const N: usize = 16;
     let mut app = app();
