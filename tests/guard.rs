@@ -233,9 +233,10 @@ fn links_held_stretched_between_pins_leave_the_step_as_its_solve_made_it() {
     // No sweep can bring the links between the top pins and the particle
     // pinned below them to the 5 % limit: the step is the one without a
     // limit, not the sweeps' partial moves.
-    // (0.2 m: the sweeps stop with links still 33 % long.)
-    let (x, v) = held_stretched_step(0.2, SimSettings::default().implicit.strain_limit);
-    let (free_x, free_v) = held_stretched_step(0.2, f32::INFINITY);
+    // (0.4 m: the sweeps stop with links still 73–80 % long, far from
+    // halving the worst excess.)
+    let (x, v) = held_stretched_step(0.4, SimSettings::default().implicit.strain_limit);
+    let (free_x, free_v) = held_stretched_step(0.4, f32::INFINITY);
     assert_eq!(x, free_x);
     assert_eq!(v, free_v);
 }

@@ -628,9 +628,9 @@ struct Refine<'a> {
 /// strain is undone. Then, if a Type 1 link is still strained past
 /// [`ImplicitParams::strain_limit`](crate::sim::settings::ImplicitParams::strain_limit),
 /// the links are shortened to it ([`limit_strain`]), followed by the hook
-/// and the check; sweeps that stop with a link still past the bound (held
-/// stretched between pins) are undone. Neither runs on a step whose solve
-/// held contacts.
+/// and the check; sweeps that stop with a link still past the bound and
+/// less than half the worst excess taken off (links held stretched between
+/// pins) are undone. Neither runs on a step whose solve held contacts.
 /// Returns the last check's result.
 fn refine<H: ContactHook>(
     mut r: Refine,
@@ -699,11 +699,16 @@ fn refine<H: ContactHook>(
             params.strain_limit,
             MAX_SWEEPS,
         );
-        if limited.strain > 0.0 {
-            // Links no sweep can bring to the bound (held stretched between
-            // pinned or grabbed particles): the sweeps' partial moves would
-            // only crumple the cloth around them, so the step stands as
-            // the solve left it.
+        // Sweeps that stopped with a link still past the bound and took
+        // less than half the worst excess off are up against links held
+        // stretched between pinned or grabbed particles: their partial
+        // moves would only crumple the cloth around them, so the step
+        // stands as the solve left it.
+        let excess = |s: f32| s - params.strain_limit;
+        if limited.strain > 0.0 && {
+            let left = max_strain(r.connections.type1(), &p.positions);
+            !(excess(left) <= 0.5 * excess(strain))
+        } {
             p.positions.clone_from(&state.newton_x);
             p.velocities.clone_from(&state.newton_v);
             return checked;

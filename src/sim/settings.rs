@@ -177,9 +177,10 @@ pub struct ImplicitParams {
     /// velocities follow, unless the solve held contacts that step. The
     /// step is linearised where it starts, so a stiff or fine sheet let go
     /// horizontal would stretch the links at its pins far past what its
-    /// forces allow (a fifth at 256×256). Where no sweep can bring the
-    /// links to it (held stretched between pinned or grabbed particles,
-    /// as a player's drag does), the step stands as the solve left it.
+    /// forces allow (a fifth at 256×256). Where the sweeps cannot bring the
+    /// links to it and take less than half the worst excess off (links
+    /// held stretched between pinned or grabbed particles, as a player's
+    /// drag does), the step stands as the solve left it.
     /// 5 % by default;
     /// `f32::INFINITY` turns it off. A cloth with
     /// [`ClothTearing`](crate::plugin::tear::ClothTearing) is not limited:
