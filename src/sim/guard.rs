@@ -707,7 +707,8 @@ fn refine<H: ContactHook>(
         let excess = |s: f32| s - params.strain_limit;
         if limited.strain > 0.0 && {
             let left = max_strain(r.connections.type1(), &p.positions);
-            !(excess(left) <= 0.5 * excess(strain))
+            let halved = excess(left) <= 0.5 * excess(strain);
+            !halved
         } {
             p.positions.clone_from(&state.newton_x);
             p.velocities.clone_from(&state.newton_v);
