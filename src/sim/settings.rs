@@ -180,8 +180,7 @@ pub struct ImplicitParams {
     /// forces allow (a fifth at 256×256). Where the sweeps cannot bring the
     /// links to it and take less than half the worst excess off (links
     /// held stretched between pinned or grabbed particles, as a player's
-    /// drag does), the step stands as the solve left it.
-    /// 5 % by default;
+    /// drag does), the step stands as the solve left it. 5 % by default;
     /// `f32::INFINITY` turns it off. A cloth with
     /// [`ClothTearing`](crate::plugin::tear::ClothTearing) is not limited:
     /// its threads must be free to reach their tear strain (15 % for
