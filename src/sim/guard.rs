@@ -704,15 +704,15 @@ fn refine<H: ContactHook>(
         // stretched between pinned or grabbed particles: their partial
         // moves would only crumple the cloth around them, so the step
         // stands as the solve left it.
-        let excess = |s: f32| s - params.strain_limit;
-        if limited.strain > 0.0 && {
+        if limited.strain > 0.0 {
+            let excess = |s: f32| s - params.strain_limit;
             let left = max_strain(r.connections.type1(), &p.positions);
             let halved = excess(left) <= 0.5 * excess(strain);
-            !halved
-        } {
-            p.positions.clone_from(&state.newton_x);
-            p.velocities.clone_from(&state.newton_v);
-            return checked;
+            if !halved {
+                p.positions.clone_from(&state.newton_x);
+                p.velocities.clone_from(&state.newton_v);
+                return checked;
+            }
         }
         r.buffers.implicit.moved_to(&p.positions);
         resolve_last(&mut r, hook);
