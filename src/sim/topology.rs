@@ -19,7 +19,7 @@
 //! Rest lengths are the mesh's as modelled. Each unordered pair is stored
 //! once, and each family is sorted by its first particle, then its second.
 
-use std::collections::HashMap;
+use bevy::platform::collections::HashMap;
 
 use bevy::math::Vec3;
 
@@ -166,8 +166,8 @@ impl MeshTopology {
             .map(|w| w.map(|i| particle_of_weld[i as usize].unwrap_or_default()))
             .collect();
         out.non_manifold_edges = edges(&out.triangles)
-            .values()
-            .filter(|e| e.count > 2)
+            .iter()
+            .filter(|(_, e)| e.count > 2)
             .count();
         Ok(out)
     }
@@ -233,64 +233,78 @@ impl MeshTopology {
     /// mesh cloth's forces are evaluated link by link, never in grid bands.
     pub fn connections(&self) -> Connections {
         let x = &self.positions;
-        let mut edges: Vec<((u32, u32), Edge)> = edges(&self.triangles).into_iter().collect();
-        edges.sort_unstable_by_key(|&(pair, _)| pair);
+        let edges = edges(&self.triangles);
         // Every mesh edge first, so that a quad's other diagonal that is
         // also a mesh edge keeps that edge's family.
-        let mut type1: HashMap<(u32, u32), bool> = HashMap::with_capacity(2 * edges.len());
+        let mut type1: Vec<((u32, u32), bool)> = Vec::with_capacity(2 * edges.len());
         let mut added = Vec::new();
-        for ((a, b), edge) in edges {
+        for &((a, b), edge) in &edges {
             let diagonal = edge.count == 2 && self.is_diagonal(a, b, edge.opposite);
-            type1.insert((a, b), diagonal);
+            type1.push(((a, b), diagonal));
             if diagonal {
                 let [c, d] = edge.opposite;
                 added.push((c.min(d), c.max(d)));
             }
         }
-        for pair in added {
-            type1.entry(pair).or_insert(true);
-        }
+        added.sort_unstable();
+        added.dedup();
+        added.retain(|pair| edges.binary_search_by_key(pair, |&(e, _)| e).is_err());
+        type1.extend(added.into_iter().map(|pair| (pair, true)));
         let mut out = Connections::default();
-        let mut neighbours: Vec<Vec<(u32, bool)>> = vec![Vec::new(); x.len()];
-        for (&(a, b), &diagonal) in &type1 {
+        // Each particle's Type 1 neighbours `(u, diagonal, direction to u)`,
+        // sorted: `around[start[v]..start[v + 1]]`.
+        let mut start = vec![0usize; x.len() + 1];
+        for &((a, b), _) in &type1 {
+            start[a as usize + 1] += 1;
+            start[b as usize + 1] += 1;
+        }
+        for v in 0..x.len() {
+            start[v + 1] += start[v];
+        }
+        let mut around = vec![(0u32, false, Vec3::ZERO); start[x.len()]];
+        let mut fill = start.clone();
+        for &((a, b), diagonal) in &type1 {
             let link = Link::from_rest(a, b, x);
             if diagonal {
                 out.shear.push(link);
             } else {
                 out.structural.push(link);
             }
-            neighbours[a as usize].push((b, diagonal));
-            neighbours[b as usize].push((a, diagonal));
+            let along = (x[b as usize] - x[a as usize]).normalize_or_zero();
+            for (p, q, d) in [(a, b, along), (b, a, -along)] {
+                around[fill[p as usize]] = (q, diagonal, d);
+                fill[p as usize] += 1;
+            }
         }
-        for list in &mut neighbours {
-            list.sort_unstable();
+        let row = |v: u32| start[v as usize]..start[v as usize + 1];
+        for v in 0..x.len() as u32 {
+            around[row(v)].sort_unstable_by_key(|&(u, diagonal, _)| (u, diagonal));
         }
         let cos_max = MAX_CONTINUATION_ANGLE.cos();
-        let mut type2: HashMap<(u32, u32), bool> = HashMap::new();
-        for (v, around) in neighbours.iter().enumerate() {
-            let v = v as u32;
-            for &(w, diagonal) in around {
-                let along = (x[w as usize] - x[v as usize]).normalize_or_zero();
-                let best = neighbours[w as usize]
+        // Each Type 2 pair with the family of the first link it continues
+        // across, in the order of `v` and its neighbours.
+        let mut type2: Vec<((u32, u32), bool)> = Vec::new();
+        for v in 0..x.len() as u32 {
+            for &(w, diagonal, along) in &around[row(v)] {
+                let best = around[row(w)]
                     .iter()
-                    .filter(|&&(u, _)| u != v)
-                    .map(|&(u, _)| {
-                        (
-                            u,
-                            along.dot((x[u as usize] - x[w as usize]).normalize_or_zero()),
-                        )
-                    })
+                    .filter(|&&(u, _, _)| u != v)
+                    .map(|&(u, _, next)| (u, along.dot(next)))
                     .filter(|&(_, cos)| cos >= cos_max)
                     .max_by(|p, q| p.1.total_cmp(&q.1).then(q.0.cmp(&p.0)));
                 if let Some((u, _)) = best {
-                    let pair = (v.min(u), v.max(u));
-                    if !type1.contains_key(&pair) {
-                        type2.entry(pair).or_insert(diagonal);
+                    let joined = around[row(v)]
+                        .binary_search_by_key(&u, |&(n, _, _)| n)
+                        .is_ok();
+                    if !joined {
+                        type2.push(((v.min(u), v.max(u)), diagonal));
                     }
                 }
             }
         }
-        for (&(a, b), &diagonal) in &type2 {
+        type2.sort_by_key(|&(pair, _)| pair);
+        type2.dedup_by_key(|&mut (pair, _)| pair);
+        for &((a, b), diagonal) in &type2 {
             let link = Link::from_rest(a, b, x);
             if diagonal {
                 out.bend_diagonal.push(link);
@@ -471,20 +485,34 @@ struct Edge {
     opposite: [u32; 2],
 }
 
-/// Every edge of `triangles`, keyed by its particles in increasing order.
-fn edges(triangles: &[[u32; 3]]) -> HashMap<(u32, u32), Edge> {
-    let mut out: HashMap<(u32, u32), Edge> = HashMap::with_capacity(3 * triangles.len() / 2);
+/// Every edge of `triangles`, keyed by its particles in increasing order,
+/// sorted by key; the opposite particles in the triangles' order.
+fn edges(triangles: &[[u32; 3]]) -> Vec<((u32, u32), Edge)> {
+    let mut sides: Vec<((u32, u32), u32)> = Vec::with_capacity(3 * triangles.len());
     for t in triangles {
         for k in 0..3 {
             let (a, b, c) = (t[k], t[(k + 1) % 3], t[(k + 2) % 3]);
-            let edge = out.entry((a.min(b), a.max(b))).or_insert(Edge {
-                count: 0,
-                opposite: [c; 2],
-            });
-            if edge.count == 1 {
-                edge.opposite[1] = c;
+            sides.push(((a.min(b), a.max(b)), c));
+        }
+    }
+    // Stable: the sides of one edge stay in their triangles' order.
+    sides.sort_by_key(|&(pair, _)| pair);
+    let mut out: Vec<((u32, u32), Edge)> = Vec::with_capacity(sides.len() / 2 + 1);
+    for (pair, c) in sides {
+        match out.last_mut() {
+            Some((last, edge)) if *last == pair => {
+                if edge.count == 1 {
+                    edge.opposite[1] = c;
+                }
+                edge.count += 1;
             }
-            edge.count += 1;
+            _ => out.push((
+                pair,
+                Edge {
+                    count: 1,
+                    opposite: [c; 2],
+                },
+            )),
         }
     }
     out
