@@ -261,7 +261,8 @@ fn pcg_inner(params: &ImplicitParams, buffers: &mut ImplicitBuffers) -> (u32, f3
     // mostly the mass), and a cloth at rest has a right-hand side near 0.
     let floor = (params.velocity_tolerance as f64).powi(2) * op.total_mass();
     let tol2 = (params.tolerance as f64).powi(2).max(floor / delta0);
-    let halves = Halves::plan(op, coarse.as_deref());
+    // A mesh cloth's coarse correction is not split between threads.
+    let halves = Halves::plan(op, coarse.as_deref()).filter(|_| mesh.is_none());
     let may_share = halves.is_some() && params.helper_thread;
     let started = Instant::now();
     if let Some(halves) = halves

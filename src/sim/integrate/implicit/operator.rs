@@ -21,7 +21,9 @@
 //! them). Pairs with any other step (crease springs,
 //! hand-made connections) or a second block on one slot go through a short
 //! pair list. Nothing assumes the pairs form a grid: a missing pair is a
-//! zero block.
+//! zero block. A cloth that is not a grid takes streams for the steps that
+//! a quarter or more of its particles' pairs share ([`common_steps`]), and
+//! keeps the rest in the pair list.
 
 use std::ops::Range;
 
@@ -258,6 +260,51 @@ pub(super) struct Operator {
     /// list's sums, for the pairs outside the streams.
     gathered: Vec<Vec3A>,
     sums: Vec<Vec3A>,
+    /// The streams of a cloth that is not a grid ([`common_steps`]), and
+    /// the counts of particles and of force streams they were chosen for.
+    common: ((usize, usize), Vec<usize>),
+    /// Keeps every pair of a cloth that is not a grid in the pair list
+    /// (the tests compare the two forms).
+    pub(super) list_only: bool,
+}
+
+/// The index steps `q − p` that at least a quarter of `n` particles'
+/// pairs share, in `blocks` and in the force streams' blocks `streamed`,
+/// most common first, at most 8: the streams of a cloth that is not a
+/// grid. A mesh whose particles are numbered row by row (a subdivided
+/// plane, a torn grid) has a grid's few steps; its other pairs, and every
+/// pair of a mesh numbered otherwise, go through the pair list. The choice
+/// only sets how `A` is stored: its products differ in rounding only.
+fn common_steps<'a>(
+    n: usize,
+    blocks: &[Block],
+    streamed: impl Iterator<Item = StreamBlocks<'a>>,
+) -> Vec<usize> {
+    let mut steps: Vec<(usize, usize)> = blocks
+        .iter()
+        .map(|b| (b.a.abs_diff(b.b) as usize, 1))
+        .collect();
+    steps.extend(streamed.map(|src| {
+        let links = src
+            .t
+            .iter()
+            .zip(src.s)
+            .filter(|&(&t, &s)| t != 0.0 || s != 0.0);
+        (src.delta, links.count())
+    }));
+    steps.retain(|&(d, _)| d > 0 && d < n);
+    steps.sort_unstable();
+    let mut counted: Vec<(usize, usize)> = Vec::new();
+    for (d, links) in steps {
+        match counted.last_mut() {
+            Some((last, count)) if *last == d => *count += links,
+            _ => counted.push((d, links)),
+        }
+    }
+    counted.retain(|&(_, count)| 4 * count >= n);
+    counted.sort_unstable_by(|p, q| q.1.cmp(&p.1).then(p.0.cmp(&q.0)));
+    counted.truncate(8);
+    counted.into_iter().map(|(d, _)| d).collect()
 }
 
 impl Operator {
@@ -295,7 +342,7 @@ impl Operator {
         &mut self,
         columns: usize,
         (inverse_masses, mass_scale): (&[f32], f32),
-        (blocks, streamed): (&[Block], impl Iterator<Item = StreamBlocks<'a>>),
+        (blocks, streamed): (&[Block], impl Iterator<Item = StreamBlocks<'a>> + Clone),
         (alpha, beta): (f32, f32),
     ) {
         let n = inverse_masses.len();
@@ -307,6 +354,14 @@ impl Operator {
                     self.deltas.push(d);
                 }
             }
+        } else if !self.list_only {
+            // Chosen again when the particles or the force streams change
+            // (a tear), not as a buckling link's block comes and goes.
+            let key = (n, streamed.clone().count());
+            if self.common.0 != key {
+                self.common = (key, common_steps(n, blocks, streamed.clone()));
+            }
+            self.deltas.extend_from_slice(&self.common.1);
         }
         self.pad = self
             .deltas
@@ -491,8 +546,8 @@ impl Operator {
     }
 
     /// Adds the pairs outside the streams and the [`extra`](Self::extra)
-    /// diagonal blocks to `out = A d`, filtered. The pairs (every pair of
-    /// a mesh cloth) run over the vector copied particle by particle, so
+    /// diagonal blocks to `out = A d`, filtered. The pairs (most of a
+    /// mesh cloth's) run over the vector copied particle by particle, so
     /// each end is one load and one store rather than three.
     fn apply_others(&mut self, d: &Soa, out: &mut Soa) {
         if !self.others.is_empty() {
@@ -637,6 +692,12 @@ impl Operator {
             }
         }
         out
+    }
+
+    /// The index steps of the streams (for tests).
+    #[cfg(test)]
+    pub fn steps(&self) -> &[usize] {
+        &self.deltas
     }
 
     /// `M(1 + αc)` per particle (kg), 0 for pins (for tests).

@@ -111,8 +111,10 @@ fn the_streams_give_the_product_of_the_pair_list() {
     let w = &cloth.particles.inverse_masses;
     let h = 1.0 / 60.0;
     let (mut grid, mut list) = (Operator::default(), Operator::default());
+    list.list_only = true;
     grid.build(9, w, 1.1, &blocks, h, h * h, None);
     list.build(0, w, 1.1, &blocks, h, h * h, None);
+    assert!(list.steps().is_empty());
     let pairs = grid.pairs().len();
     assert!(pairs > 250 && list.pairs().len() == pairs, "{pairs} pairs");
     let mut d = soa(81, wiggle);
@@ -128,6 +130,69 @@ fn the_streams_give_the_product_of_the_pair_list() {
         );
     }
     assert_eq!(a.get(0), Vec3::ZERO, "a pinned row is filtered");
+}
+
+/// A cloth that is not a grid but numbered row by row (a torn grid, a
+/// subdivided plane) has its own streams, found from its pairs; one
+/// numbered at random has none. Either way the product is the pair list's.
+#[test]
+fn a_mesh_numbered_row_by_row_finds_the_grids_streams() {
+    let (cloth, _, blocks) = deformed(9);
+    let w = &cloth.particles.inverse_masses;
+    let h = 1.0 / 60.0;
+    // The particles renumbered by a fixed shuffle: no step is common.
+    let mut order: Vec<u32> = (0..81).collect();
+    let mut state = 12345u32;
+    for i in (1..81).rev() {
+        state = state.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+        order.swap(i, (state >> 8) as usize % (i + 1));
+    }
+    let shuffle = |i: u32| order[i as usize];
+    let mut shuffled_w = vec![0.0; 81];
+    for (i, &wi) in w.iter().enumerate() {
+        shuffled_w[shuffle(i as u32) as usize] = wi;
+    }
+    let shuffled: Vec<Block> = blocks
+        .iter()
+        .map(|b| Block {
+            a: shuffle(b.a),
+            b: shuffle(b.b),
+            ..*b
+        })
+        .collect();
+    let mut list = Operator::default();
+    list.list_only = true;
+    list.build(0, w, 1.1, &blocks, h, h * h, None);
+    let (mut found, mut none) = (Operator::default(), Operator::default());
+    found.build(0, w, 1.1, &blocks, h, h * h, None);
+    none.build(0, &shuffled_w, 1.1, &shuffled, h, h * h, None);
+    // The Type 1 steps, and only the grid's (a Type 2 link has a block
+    // only while it buckles).
+    let steps = found.steps();
+    let grid = [1, 2, 8, 9, 10, 16, 18, 20];
+    assert!(steps.iter().all(|d| grid.contains(d)), "{steps:?}");
+    assert!([1, 8, 9, 10].iter().all(|d| steps.contains(d)), "{steps:?}");
+    assert!(none.steps().is_empty(), "{:?}", none.steps());
+    let mut d = soa(81, wiggle);
+    d.filter(&list.free);
+    let (mut a, mut b) = (soa(81, |_| Vec3::ZERO), soa(81, |_| Vec3::ZERO));
+    list.apply(&d, &mut a);
+    found.apply(&d, &mut b);
+    let mut e = soa(81, |_| Vec3::ZERO);
+    let mut ds = soa(81, |_| Vec3::ZERO);
+    for i in 0..81 {
+        ds.set(shuffle(i as u32) as usize, d.get(i));
+    }
+    none.apply(&ds, &mut e);
+    for i in 0..81 {
+        let q = a.get(i);
+        for p in [b.get(i), e.get(shuffle(i as u32) as usize)] {
+            assert!(
+                (p - q).length() <= 1e-5 * (1.0 + q.length()),
+                "{i}: {p} vs {q}"
+            );
+        }
+    }
 }
 
 #[test]

@@ -336,7 +336,7 @@ impl ForceStreams {
 
     /// The blocks of every stream at the last
     /// [`linearise_synced`](Self::linearise_synced).
-    pub(crate) fn blocks(&self) -> impl Iterator<Item = StreamBlocks<'_>> {
+    pub(crate) fn blocks(&self) -> impl Iterator<Item = StreamBlocks<'_>> + Clone {
         self.families.iter().flat_map(|c| &c.streams).map(|s| {
             let [t, sc, ux, uy, uz] = s.blocks.each_ref().map(|c| &c[..]);
             StreamBlocks {

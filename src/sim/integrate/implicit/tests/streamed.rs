@@ -76,8 +76,9 @@ fn the_streamed_linearisation_matches_the_block_list() {
         op1.build_with(12, (inverse_masses, 1.1), terms, (h, h * h));
         c1.add_pairs(n, (&others[..], streams.blocks()), (h, h * h));
         assert!(c0.finish() && c1.finish());
-        // Without a grid (`columns` 0) every streamed block goes to the pair list.
+        // Kept out of the streams, every streamed block goes to the pair list.
         let mut op2 = Operator::default();
+        op2.list_only = true;
         let terms = (&others[..], streams.blocks());
         op2.build_with(0, (inverse_masses, 1.1), terms, (h, h * h));
         let d = soa(n, |i| w[i]);
