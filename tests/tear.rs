@@ -64,6 +64,13 @@ fn layout_of(app: &App, cloth: Entity) -> MeshLayout {
     shape.mesh().expect("a mesh cloth").clone()
 }
 
+/// A torn cloth's layout holds the mesh rule's links of its own topology
+/// (the next tear maps the cloth's links from them).
+fn assert_rule_links_kept(app: &App, cloth: Entity) {
+    let layout = layout_of(app, cloth);
+    assert_eq!(layout.rule_links(), &layout.topology().connections());
+}
+
 fn assert_layout(layout: &MeshLayout, n: usize) {
     let vertices = layout.vertex_particles();
     assert!(vertices.iter().all(|&q| (q as usize) < n));
@@ -316,6 +323,7 @@ fn a_thousand_random_cuts_through_pins_anchors_grabs_and_tethers_never_break_the
         // The anchor carries every copy of its particle.
         let anchors = app.world().get::<ClothAnchors>(cloth).unwrap();
         assert!(anchors.0.iter().all(|a| (a.particle as usize) < p.len()));
+        assert_rule_links_kept(&app, cloth);
     }
 }
 

@@ -4,13 +4,14 @@
 //! The one place the mesh topology meets `bevy::mesh`.
 
 use std::collections::HashMap;
-use std::sync::Arc;
+use std::sync::{Arc, OnceLock};
 
 use bevy::math::{Vec2, Vec3};
 use bevy::mesh::{Indices, Mesh, PrimitiveTopology, VertexAttributeValues};
 use bevy::reflect::Reflect;
 
 use crate::error::ClothError;
+use crate::sim::connections::Connections;
 use crate::sim::grid::{Faces, Grid};
 use crate::sim::topology::MeshTopology;
 
@@ -22,7 +23,7 @@ use crate::sim::topology::MeshTopology;
 #[reflect(opaque, Clone, Debug, PartialEq)]
 pub struct MeshLayout(Arc<ShapeData>);
 
-#[derive(Debug, PartialEq)]
+#[derive(Debug)]
 struct ShapeData {
     topology: MeshTopology,
     vertex_particles: Vec<u32>,
@@ -31,6 +32,21 @@ struct ShapeData {
     spacing: f32,
     area: f32,
     cell_size: f32,
+    /// The mesh rule's links of `topology`, once asked for.
+    rule: OnceLock<Connections>,
+}
+
+/// Equal shapes, whether or not either has built its rule's links.
+impl PartialEq for ShapeData {
+    fn eq(&self, other: &Self) -> bool {
+        self.topology == other.topology
+            && self.vertex_particles == other.vertex_particles
+            && self.uvs == other.uvs
+            && self.indices == other.indices
+            && self.spacing == other.spacing
+            && self.area == other.area
+            && self.cell_size == other.cell_size
+    }
 }
 
 impl MeshLayout {
@@ -101,6 +117,7 @@ impl MeshLayout {
             spacing,
             area,
             cell_size,
+            rule: OnceLock::new(),
         }))
     }
 
@@ -181,6 +198,21 @@ impl MeshLayout {
     /// The welded particles and triangles.
     pub fn topology(&self) -> &MeshTopology {
         &self.0.topology
+    }
+
+    /// The links the mesh rule gives its topology
+    /// ([`MeshTopology::connections`], rest lengths in m): built the first
+    /// time they are asked for and kept (a tear maps a cloth's links from
+    /// them).
+    pub fn rule_links(&self) -> &Connections {
+        self.0.rule.get_or_init(|| self.0.topology.connections())
+    }
+
+    /// Keeps `links` as [`rule_links`](Self::rule_links), which they must
+    /// be (a tear that has just built them); no change if they were built
+    /// already.
+    pub(crate) fn keep_rule_links(&self, links: Connections) {
+        let _ = self.0.rule.set(links);
     }
 
     /// For each vertex the live mesh renders, its particle.

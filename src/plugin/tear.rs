@@ -331,12 +331,12 @@ pub(crate) fn tear_cloths(
             continue;
         }
         // The layout still holds the topology before the tear.
-        let rule_before = layout.topology().connections();
         let origins = outcome.origins(topology.len());
+        let rule_after = topology.connections();
         let links = tear::rebuild(
             &item.connections,
-            &rule_before,
-            &topology.connections(),
+            layout.rule_links(),
+            &rule_after,
             &origins,
         );
         if let Some(record) = item.creases.as_mut() {
@@ -344,7 +344,9 @@ pub(crate) fn tear_cloths(
         }
         split_state(&mut item, &outcome);
         item.connections.0 = links;
-        *item.cloth = Cloth::Mesh(layout.torn(topology));
+        let torn = layout.torn(topology);
+        torn.keep_rule_links(rule_after);
+        *item.cloth = Cloth::Mesh(torn);
         broken.extend(crossed);
         broken.sort_unstable();
         broken.dedup();
