@@ -19,7 +19,7 @@
 //! Rest lengths are the mesh's as modelled. Each unordered pair is stored
 //! once, and each family is sorted by its first particle, then its second.
 
-use bevy::platform::collections::HashMap;
+use std::collections::HashMap;
 
 use bevy::math::Vec3;
 
