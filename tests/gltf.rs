@@ -73,9 +73,7 @@ fn a_pennant_from_gltf_becomes_a_cloth_pinned_where_it_was_painted() {
         .collect();
     assert_eq!((cloth.particles.len(), pins.len()), (174, 13));
     assert!(pins.iter().all(|&p| cloth.particles.positions[p].x == 0.0));
-    let Cloth::Mesh(layout) = &cloth.cloth else {
-        panic!("a mesh cloth")
-    };
+    let layout = cloth.cloth.mesh().expect("a mesh cloth");
     assert!((layout.area() - 0.5 * 1.2 * 0.6).abs() < 1e-4);
     assert_eq!(
         layout.uvs().map(<[_]>::len),

@@ -51,9 +51,7 @@ fn a_disc_pinned_at_its_centre_falls_like_an_umbrella_and_its_mesh_follows() {
     assert!(strain(&app, e) < 0.05, "strain {}", strain(&app, e));
     // The live mesh: the source's vertices at their particles' positions,
     // its UVs kept, smooth unit normals, the centre's pointing up.
-    let Cloth::Mesh(layout) = app.world().get::<Cloth>(e).unwrap().clone() else {
-        panic!("a mesh cloth")
-    };
+    let layout = app.world().get::<Cloth>(e).unwrap().layout().clone();
     let shown = live(&app, e, Mesh::ATTRIBUTE_POSITION);
     assert_eq!(shown.len(), mesh.count_vertices());
     for (x, &q) in shown.iter().zip(layout.vertex_particles()) {
@@ -108,9 +106,7 @@ fn a_sphere_cut_open_keeps_its_seam_closed_as_it_falls() {
         .unwrap();
     let particles_count = cloth.particles.len();
     let e = app.world_mut().spawn(cloth).id();
-    let Cloth::Mesh(layout) = app.world().get::<Cloth>(e).unwrap().clone() else {
-        panic!("a mesh cloth")
-    };
+    let layout = app.world().get::<Cloth>(e).unwrap().layout().clone();
     assert!(
         layout.vertex_particles().len() > particles_count,
         "the seam welded"
@@ -532,4 +528,104 @@ fn a_mesh_cloth_fed_nan_and_flicked_at_50_m_s_recovers() {
     }
     assert!(strain(&app, e) < 0.05, "strain {}", strain(&app, e));
     assert_eq!(particles(&app, e).positions[0], pin);
+}
+
+/// A disc of 217 particles pinned at its centre, with tethers: its step
+/// has force streams, a coarse correction and tethers built from its links.
+fn tethered_disc(app: &mut App) -> Entity {
+    let cloth = ClothBuilder::from_mesh(&disc_mesh(8, 0.5, 0.3))
+        .pin_vertex(0)
+        .build()
+        .unwrap();
+    assert!(cloth.particles.len() >= 200);
+    app.world_mut().spawn((cloth, ClothTethers::default())).id()
+}
+
+/// Rejoins the first Type 1 link to a particle across the disc, at its
+/// rest distance, and halves the next link's rest length.
+fn rejoin(connections: &mut ClothConnections, rest: &[Vec3]) {
+    let far = rest.len() as u32 - 1;
+    let first = &mut connections.structural[0];
+    *first = bevy_cloth::sim::connections::Link::from_rest(first.a, far, rest);
+    connections.structural[1].rest_length *= 0.5;
+}
+
+#[test]
+fn links_edited_in_place_reach_every_cache_on_the_next_step() {
+    // Two identical disc cloths; one has its links edited in place (same
+    // lists, same lengths), the other gets a new component with the same
+    // edit. Every cache (force streams, coarse correction, tethers) must
+    // see the edit, so both go on identically.
+    let (mut edited, mut replaced) = (app(), app());
+    let a = tethered_disc(&mut edited);
+    let b = tethered_disc(&mut replaced);
+    for _ in 0..20 {
+        edited.update();
+        replaced.update();
+    }
+    assert!(particles(&edited, a) == particles(&replaced, b));
+    let rest = particles(&edited, a).positions.clone();
+    let mut links = edited.world_mut().get_mut::<ClothConnections>(a).unwrap();
+    rejoin(&mut links, &rest);
+    let mut fresh = replaced.world().get::<ClothConnections>(b).unwrap().clone();
+    rejoin(&mut fresh, &rest);
+    replaced.world_mut().entity_mut(b).insert(fresh);
+    for _ in 0..20 {
+        edited.update();
+        replaced.update();
+    }
+    let (p, q) = (particles(&edited, a), particles(&replaced, b));
+    assert!(p.is_finite());
+    assert!(p.positions == q.positions, "a cache missed the edit");
+}
+
+#[test]
+fn a_new_layout_is_rendered_and_names_a_new_generation() {
+    let mut app = app_with_meshes();
+    let disc = disc_mesh(3, 0.4, 0.0);
+    let e = app
+        .world_mut()
+        .spawn(ClothBuilder::from_mesh(&disc).build().unwrap())
+        .id();
+    app.update();
+    let rendered = |app: &App| {
+        let handle = &app.world().get::<Mesh3d>(e).unwrap().0;
+        let mesh = app.world().resource::<Assets<Mesh>>().get(handle).unwrap();
+        mesh.indices().unwrap().iter().collect::<Vec<usize>>()
+    };
+    let before = rendered(&app);
+    // The same particles and vertices, every triangle wound the other way.
+    let mut flipped = disc.clone();
+    let Some(bevy::mesh::Indices::U32(indices)) = flipped.indices_mut() else {
+        panic!("u32 indices")
+    };
+    indices.chunks_exact_mut(3).for_each(|t| t.swap(1, 2));
+    let layout = MeshLayout::from_mesh(&flipped).unwrap();
+    let mut cloth = app.world_mut().get_mut::<Cloth>(e).unwrap();
+    let generation = cloth.generation();
+    cloth.set_layout(layout);
+    assert_ne!(cloth.generation(), generation);
+    app.update();
+    let after = rendered(&app);
+    assert_eq!(after.len(), before.len());
+    assert_ne!(after, before);
+    let wound: Vec<usize> = before
+        .chunks_exact(3)
+        .flat_map(|t| [t[0], t[2], t[1]])
+        .collect();
+    assert_eq!(after, wound);
+}
+
+#[test]
+fn a_grid_cloth_keeps_its_fast_path_until_its_topology_changes() {
+    let mut cloth = ClothBuilder::new(4, 3).build().unwrap().cloth;
+    assert!(cloth.grid().is_some() && cloth.mesh().is_none());
+    assert_eq!(cloth.layout().topology().len(), 12);
+    let own = cloth.layout().clone();
+    cloth.set_layout(own);
+    assert!(cloth.grid().is_some(), "the grid's own topology keeps it");
+    let disc = MeshLayout::from_mesh(&disc_mesh(1, 0.4, 0.0)).unwrap();
+    cloth.set_layout(disc.clone());
+    assert!(cloth.grid().is_none());
+    assert_eq!(cloth.mesh(), Some(&disc));
 }

@@ -298,10 +298,7 @@ fn fold_in_app(
     creases: Vec<Crease>,
     frames: usize,
 ) -> ((f32, f32), Vec<Vec3>) {
-    let triangles = match &cloth.cloth {
-        Cloth::Grid(g) => g.triangles(),
-        Cloth::Mesh(m) => m.topology().triangles.clone(),
-    };
+    let triangles = cloth.cloth.layout().topology().triangles.clone();
     let rest = cloth.particles.positions.clone();
     let e = app.world_mut().spawn((cloth, ClothCreases(creases))).id();
     for _ in 0..frames {

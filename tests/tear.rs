@@ -53,9 +53,7 @@ fn assert_valid(app: &App, cloth: Entity) {
     assert_eq!(shape.len(), p.len());
     let forces = world.get::<ClothForces>(cloth).unwrap().0.len();
     assert!(forces == 0 || forces == p.len());
-    if let Some(layout) = shape.mesh() {
-        assert_layout(layout, p.len());
-    }
+    assert_layout(shape.layout(), p.len());
 }
 
 /// The mesh layout of a mesh (or torn) cloth.

@@ -262,7 +262,7 @@ impl ClothBuilder {
             }
         }
         Ok(ClothBundle {
-            cloth: Cloth::Grid(grid),
+            cloth: Cloth::from(grid),
             particles,
             connections,
             material: self.material,

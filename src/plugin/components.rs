@@ -3,6 +3,8 @@
 //! so `particles.positions` reads the same on a component as on the plain
 //! type; and the per-cloth forces and statistics of a fixed step.
 
+use std::sync::atomic::{AtomicU64, Ordering};
+
 use bevy::math::Vec3;
 use bevy::prelude::{
     Component, Deref, DerefMut, Reflect, ReflectComponent, ReflectDefault, ReflectResource,
@@ -17,59 +19,114 @@ use crate::sim::particles::Particles;
 use crate::sim::settings::{ClothModel, Integrator, SimSettings};
 
 /// A cloth: one entity whose particles and connections are
-/// [`ClothParticles`] and [`ClothConnections`], laid out as a rectangular
-/// [`Grid`] or as any triangle mesh ([`MeshLayout`]). Make it with
-/// [`ClothBuilder`](crate::ClothBuilder) or
-/// [`ClothBuilder::from_mesh`](crate::ClothBuilder::from_mesh);
-/// [`ClothPlugin`](crate::ClothPlugin) makes it require the step's other
-/// components (forces, stats, grabs, material, scratch, the previous
+/// [`ClothParticles`] and [`ClothConnections`], over one triangle-mesh
+/// topology ([`MeshLayout`]). Make it with [`ClothBuilder`](crate::ClothBuilder)
+/// (a rectangular [`Grid`]) or
+/// [`ClothBuilder::from_mesh`](crate::ClothBuilder::from_mesh) (any triangle
+/// mesh); [`ClothPlugin`](crate::ClothPlugin) makes it require the step's
+/// other components (forces, stats, grabs, material, scratch, the previous
 /// positions and a `Transform`).
+///
+/// The layout is the cloth's topology whichever way it was built: a grid
+/// cloth's is [`MeshLayout::from_grid`]. A grid cloth also keeps its
+/// [`Grid`] ([`Cloth::grid`]) as long as its topology is that grid's, and
+/// the step, the coarse correction and the render mesh take the grid's fast
+/// paths from it; a topology edit ([`Cloth::set_layout`], which tearing
+/// and cutting use) drops it, and the cloth goes on as a mesh cloth with the
+/// same particles.
 ///
 /// Particles are simulated in world space; keep the entity's `Transform` at
 /// identity unless you want the rendered mesh offset from the simulation.
-///
-/// A grid cloth that tears ([`tear`](crate::plugin::tear)) becomes a mesh
-/// cloth with the same particles and links.
-#[derive(Component, Clone, Debug, PartialEq, Reflect)]
-#[reflect(Component)]
-pub enum Cloth {
-    /// A `cols × rows` grid: its links are streamed in bands and its
-    /// implicit solve has a coarse-grid correction.
-    Grid(Grid),
-    /// A triangle mesh, welded, with the links of
-    /// [`MeshTopology::connections`](crate::sim::topology::MeshTopology::connections).
-    Mesh(MeshLayout),
+#[derive(Component, Clone, Debug, Reflect)]
+#[reflect(opaque, Component, Clone, Debug, PartialEq)]
+pub struct Cloth {
+    /// The particles and triangles: the topology every system reads.
+    layout: MeshLayout,
+    /// The grid `layout` was built as, while it still is that grid.
+    grid: Option<Grid>,
+    /// A number no other topology of any cloth has had
+    /// ([`Cloth::generation`]).
+    generation: u64,
+}
+
+/// A number not handed out before.
+fn fresh_generation() -> u64 {
+    static NEXT: AtomicU64 = AtomicU64::new(0);
+    NEXT.fetch_add(1, Ordering::Relaxed)
+}
+
+/// Equal layouts and grids, whatever their generations.
+impl PartialEq for Cloth {
+    fn eq(&self, other: &Self) -> bool {
+        self.layout == other.layout && self.grid == other.grid
+    }
 }
 
 impl From<Grid> for Cloth {
     fn from(grid: Grid) -> Self {
-        Self::Grid(grid)
+        Self {
+            layout: MeshLayout::from_grid(&grid),
+            grid: Some(grid),
+            generation: fresh_generation(),
+        }
+    }
+}
+
+impl From<MeshLayout> for Cloth {
+    fn from(layout: MeshLayout) -> Self {
+        Self {
+            layout,
+            grid: None,
+            generation: fresh_generation(),
+        }
     }
 }
 
 impl Cloth {
-    /// The grid of a rectangular cloth.
+    /// The grid of a cloth built as a rectangular grid whose topology is
+    /// still that grid's (`None` for a mesh cloth and for a torn grid).
     pub fn grid(&self) -> Option<&Grid> {
-        match self {
-            Self::Grid(grid) => Some(grid),
-            Self::Mesh(_) => None,
-        }
+        self.grid.as_ref()
     }
 
-    /// The shape of a mesh cloth.
+    /// The cloth's topology and render layout, for every cloth.
+    pub fn layout(&self) -> &MeshLayout {
+        &self.layout
+    }
+
+    /// The layout of a cloth that is not a grid (`None` while
+    /// [`Cloth::grid`] is `Some`): where the step takes the general mesh
+    /// paths.
     pub fn mesh(&self) -> Option<&MeshLayout> {
-        match self {
-            Self::Grid(_) => None,
-            Self::Mesh(mesh) => Some(mesh),
+        self.grid.is_none().then_some(&self.layout)
+    }
+
+    /// Replaces the cloth's topology with `layout`, which has the same
+    /// number of particles as the cloth's [`ClothParticles`] after the edit
+    /// (the caller resizes those and rewrites [`ClothConnections`]). The
+    /// grid fast path is dropped unless `layout` is the grid's own.
+    pub fn set_layout(&mut self, layout: MeshLayout) {
+        if self.grid.as_ref().is_some_and(|grid| {
+            layout.topology() != &crate::sim::topology::MeshTopology::from_grid(grid)
+        }) {
+            self.grid = None;
         }
+        self.layout = layout;
+        self.generation = fresh_generation();
+    }
+
+    /// The topology's generation: a number that changes with every
+    /// [`set_layout`](Self::set_layout) and that no other cloth's topology
+    /// has (a clone shares it, with the same topology). Caches built from
+    /// the triangles (self-collision's edge list, a cloth–cloth contact's)
+    /// compare it instead of the triangles.
+    pub fn generation(&self) -> u64 {
+        self.generation
     }
 
     /// Number of particles.
     pub fn len(&self) -> usize {
-        match self {
-            Self::Grid(grid) => grid.len(),
-            Self::Mesh(mesh) => mesh.topology().len(),
-        }
+        self.layout.topology().len()
     }
 
     /// Whether there are no particles (never for a built cloth).
@@ -81,41 +138,45 @@ impl Cloth {
     /// [`Grid::spacing`]; a mesh's mean edge length), which scales a
     /// [`ClothMaterial`](crate::ClothMaterial)'s stiffness.
     pub fn spacing(&self) -> f32 {
-        match self {
-            Self::Grid(grid) => grid.spacing(),
-            Self::Mesh(mesh) => mesh.spacing(),
+        match &self.grid {
+            Some(grid) => grid.spacing(),
+            None => self.layout.spacing(),
         }
     }
 
     /// The rest area in m².
     pub fn area(&self) -> f32 {
-        match self {
-            Self::Grid(grid) => grid.area(),
-            Self::Mesh(mesh) => mesh.area(),
+        match &self.grid {
+            Some(grid) => grid.area(),
+            None => self.layout.area(),
         }
     }
 }
 
 impl Faces for Cloth {
     fn face_count(&self) -> usize {
-        match self {
-            Self::Grid(grid) => grid.face_count(),
-            Self::Mesh(mesh) => mesh.topology().face_count(),
+        match &self.grid {
+            Some(grid) => grid.face_count(),
+            None => self.layout.topology().face_count(),
         }
     }
 
     fn face(&self, t: u32) -> [u32; 3] {
-        match self {
-            Self::Grid(grid) => grid.face(t),
-            Self::Mesh(mesh) => mesh.topology().face(t),
+        match &self.grid {
+            Some(grid) => grid.face(t),
+            None => self.layout.topology().face(t),
         }
     }
 
     fn cell_size(&self) -> f32 {
-        match self {
-            Self::Grid(grid) => grid.cell_size(),
-            Self::Mesh(mesh) => mesh.cell_size(),
+        match &self.grid {
+            Some(grid) => grid.cell_size(),
+            None => self.layout.cell_size(),
         }
+    }
+
+    fn generation(&self) -> Option<u64> {
+        Some(self.generation)
     }
 }
 

@@ -77,9 +77,9 @@ pub(crate) fn update_creases(
         if !changed && !record.as_ref().is_some_and(|r| r.closing()) {
             continue;
         }
-        let surface = match cloth {
-            Cloth::Grid(grid) => RestSurface::grid(grid),
-            Cloth::Mesh(layout) => RestSurface::mesh(layout.topology(), &connections),
+        let surface = match cloth.grid() {
+            Some(grid) => RestSurface::grid(grid),
+            None => RestSurface::mesh(cloth.layout().topology(), &connections),
         };
         let mut fresh = ClothCreaseRecord::default();
         let had_record = record.is_some();

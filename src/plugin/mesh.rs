@@ -155,18 +155,18 @@ pub fn face_normals(faces: &impl Faces, x: &[Vec3], out: &mut [[f32; 3]]) {
 
 /// Number of vertices of `cloth`'s live mesh.
 fn render_len(cloth: &Cloth) -> usize {
-    match cloth {
-        Cloth::Grid(grid) => grid.len(),
-        Cloth::Mesh(mesh) => mesh.vertex_particles().len(),
+    match cloth.grid() {
+        Some(grid) => grid.len(),
+        None => cloth.layout().vertex_particles().len(),
     }
 }
 
 /// Whether `cloth` can have a mesh with particles `x`.
 fn renderable(cloth: &Cloth, x: &[Vec3]) -> bool {
     x.len() == cloth.len()
-        && match cloth {
-            Cloth::Grid(grid) => grid.cols >= 2 && grid.rows >= 2,
-            Cloth::Mesh(mesh) => !mesh.indices().is_empty(),
+        && match cloth.grid() {
+            Some(grid) => grid.cols >= 2 && grid.rows >= 2,
+            None => !cloth.layout().indices().is_empty(),
         }
 }
 
@@ -188,14 +188,15 @@ fn write_normals(
             .to_array(),
         None => n,
     };
-    match cloth {
-        Cloth::Grid(grid) => {
+    match cloth.grid() {
+        Some(grid) => {
             grid_normals(grid.cols, grid.rows, x, out);
             if inv.is_some() {
                 out.iter_mut().for_each(|o| *o = local(*o));
             }
         }
-        Cloth::Mesh(mesh) => {
+        None => {
+            let mesh = cloth.layout();
             scratch.resize(x.len(), [0.0; 3]);
             face_normals(mesh.topology(), x, scratch);
             for (o, &p) in out.iter_mut().zip(mesh.vertex_particles()) {
@@ -209,14 +210,14 @@ fn write_normals(
 /// world), brought into local space by `inv`.
 fn write_positions(cloth: &Cloth, x: &[Vec3], inv: Option<Affine3A>, out: &mut [[f32; 3]]) {
     let local = |p: Vec3| inv.map_or(p, |inv| inv.transform_point3(p)).to_array();
-    match cloth {
-        Cloth::Grid(_) => {
+    match cloth.grid() {
+        Some(_) => {
             for (o, &p) in out.iter_mut().zip(x) {
                 *o = local(p);
             }
         }
-        Cloth::Mesh(mesh) => {
-            for (o, &p) in out.iter_mut().zip(mesh.vertex_particles()) {
+        None => {
+            for (o, &p) in out.iter_mut().zip(cloth.layout().vertex_particles()) {
                 *o = local(x[p as usize]);
             }
         }
@@ -235,15 +236,18 @@ pub fn cloth_mesh(cloth: &Cloth, x: &[Vec3], inv: Option<Affine3A>) -> Mesh {
     write_positions(cloth, x, inv, &mut positions);
     let mut normals = vec![[0.0; 3]; n];
     write_normals(cloth, x, inv, &mut normals, &mut Vec::new());
-    let (uvs, indices): (Vec<[f32; 2]>, Vec<u32>) = match cloth {
-        Cloth::Grid(grid) => {
+    let (uvs, indices): (Vec<[f32; 2]>, Vec<u32>) = match cloth.grid() {
+        Some(grid) => {
             let (cu, rv) = ((grid.cols - 1) as f32, (grid.rows - 1) as f32);
             let uvs = (0..grid.len() as u32)
                 .map(|p| [(p % grid.cols) as f32 / cu, (p / grid.cols) as f32 / rv])
                 .collect();
             (uvs, grid.triangles().into_iter().flatten().collect())
         }
-        Cloth::Mesh(mesh) => (mesh.uvs_or_projected(), mesh.indices().to_vec()),
+        None => {
+            let mesh = cloth.layout();
+            (mesh.uvs_or_projected(), mesh.indices().to_vec())
+        }
     };
     Mesh::new(
         PrimitiveTopology::TriangleList,
@@ -297,7 +301,7 @@ pub(crate) fn attach_cloth_meshes(
 
 /// What the mesh sync reads of one cloth.
 type SyncQuery = (
-    &'static Cloth,
+    Ref<'static, Cloth>,
     Ref<'static, ClothParticles>,
     Option<&'static ClothPrevious>,
     &'static Mesh3d,
@@ -306,7 +310,8 @@ type SyncQuery = (
 
 /// [`ClothMeshSystems::Sync`]: writes positions and normals of every cloth
 /// that moved: its particles changed, or it is being interpolated between
-/// two different steps.
+/// two different steps; and remakes the whole mesh (triangles, UVs) of a
+/// cloth whose topology changed (a tear, [`Cloth::set_layout`]).
 pub(crate) fn sync_cloth_meshes(
     mut meshes: ResMut<Assets<Mesh>>,
     settings: Option<Res<ClothMeshSettings>>,
@@ -321,7 +326,9 @@ pub(crate) fn sync_cloth_meshes(
         let n = cloth.len();
         let between =
             previous.filter(|p| interpolate && !p.still && p.positions.len() == n && alpha < 1.0);
-        if !particles.is_changed() && between.is_none() {
+        let edited = cloth.is_changed();
+        let cloth = &*cloth;
+        if !particles.is_changed() && between.is_none() && !edited {
             continue;
         }
         // A non-finite state keeps the last good mesh: NaN vertices would
@@ -351,7 +358,7 @@ pub(crate) fn sync_cloth_meshes(
         };
         let inv = to_local(transform);
         let vertices = render_len(cloth);
-        if vertex_count(&mesh) != Some(vertices) {
+        if edited || vertex_count(&mesh) != Some(vertices) {
             *mesh = cloth_mesh(cloth, x, inv);
             continue;
         }

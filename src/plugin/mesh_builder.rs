@@ -201,7 +201,7 @@ impl MeshClothBuilder {
             }
         }
         Ok(ClothBundle {
-            cloth: Cloth::Mesh(shape),
+            cloth: Cloth::from(shape),
             particles,
             connections,
             material: self.material,

@@ -47,8 +47,10 @@ use crate::sim::sleep::{RestChange, RestTracker};
 /// cloth, and the writeback would repeat them every fixed step.
 #[derive(Clone, Debug, Default)]
 pub(crate) struct Measured {
-    /// The connections' largest particle index, scanned at this tick.
-    links: Option<(Tick, Option<u32>)>,
+    /// The connections' largest particle index, scanned at this tick, and
+    /// the generation they were given then
+    /// ([`StepBuffers::set_links_generation`](crate::sim::integrate::StepBuffers::set_links_generation)).
+    links: Option<(Tick, Option<u32>, u64)>,
     /// The Type 1 strain of the particles as the step left them at this
     /// tick (measured by the divergence guard).
     strain: Option<(Tick, f32)>,
@@ -58,12 +60,23 @@ impl Measured {
     /// The connections' largest index: the last scan's if they have not
     /// changed since it, else a new scan at `now`.
     fn max_index(&mut self, connections: &Ref<ClothConnections>, now: Tick) -> Option<u32> {
+        self.links(connections, now).0
+    }
+
+    /// The connections' largest index and their generation: a number
+    /// that changes whenever they change (Bevy's change ticks say when),
+    /// and that no other cloth's connections have.
+    fn links(&mut self, connections: &Ref<ClothConnections>, now: Tick) -> (Option<u32>, u64) {
         match self.links {
-            Some((at, max)) if !connections.last_changed().is_newer_than(at, now) => max,
+            Some((at, max, generation)) if !connections.last_changed().is_newer_than(at, now) => {
+                (max, generation)
+            }
             _ => {
+                static NEXT: AtomicU64 = AtomicU64::new(0);
                 let max = connections.max_index();
-                self.links = Some((now, max));
-                max
+                let generation = NEXT.fetch_add(1, Ordering::Relaxed);
+                self.links = Some((now, max, generation));
+                (max, generation)
             }
         }
     }
@@ -272,7 +285,7 @@ pub(crate) fn step_cloths(
         }
         let settings = &*settings;
         let connections: &ClothConnections = &item.connections;
-        let max_index = item.scratch.measured.max_index(&item.connections, now);
+        let (max_index, generation) = item.scratch.measured.links(&item.connections, now);
         item.scratch.measured.strain = None;
         let checked = material
             .validate()
@@ -361,6 +374,7 @@ pub(crate) fn step_cloths(
         if scratch.buffers.workers.0.is_none() {
             scratch.buffers.workers = pool.clone();
         }
+        scratch.buffers.set_links_generation(Some(generation));
         // Colliders the cloth may reach this step: its box grown by the
         // thickness and twice the distance its fastest particle or gravity
         // could carry it.
@@ -388,7 +402,8 @@ pub(crate) fn step_cloths(
             .filter(|(t, _)| t.slack.is_finite() && t.slack >= 1.0)
             .map(|(t, made)| {
                 let t = &**t;
-                made.0.update(connections, &item.particles.inverse_masses);
+                let w = &item.particles.inverse_masses;
+                made.0.update_tracked(connections, Some(generation), w);
                 (&made.0, t.slack)
             });
         let helper = settings.implicit.helper_thread;

@@ -9,8 +9,8 @@
 //! with its own particles, links and rendered vertices (UVs kept). A piece
 //! that falls away keeps stepping as part of the same cloth.
 //!
-//! A torn grid cloth becomes a mesh cloth ([`Cloth::Mesh`]) at its first
-//! tear, with the same particles and links (its force loop then runs link
+//! A torn grid cloth becomes a mesh cloth (its [`Cloth::grid`] is gone) at
+//! its first tear, with the same particles and links (its force loop then runs link
 //! by link, its coarse correction by aggregation). On every tear:
 //!
 //! - the links are rebuilt ([`sim::tear::rebuild`](crate::sim::tear::rebuild)):
@@ -44,7 +44,6 @@ use crate::plugin::components::{ClothParticles, ClothSettings};
 use crate::plugin::crease::ClothCreaseRecord;
 use crate::plugin::material::ClothMaterial;
 use crate::plugin::mesh::ClothPrevious;
-use crate::plugin::mesh_cloth::MeshLayout;
 use crate::plugin::skin::ClothSkin;
 use crate::sim::connections::Link;
 use crate::sim::settings::ClothModel;
@@ -317,10 +316,7 @@ pub(crate) fn tear_cloths(
         if broken.is_empty() && blades.is_empty() {
             continue;
         }
-        let layout = match &*item.cloth {
-            Cloth::Grid(grid) => MeshLayout::from_grid(grid),
-            Cloth::Mesh(layout) => layout.clone(),
-        };
+        let layout = item.cloth.layout().clone();
         let mut topology = layout.topology().clone();
         let adjacency = Adjacency::new(&topology);
         let mut plan = tear::break_links(x, &broken);
@@ -346,7 +342,7 @@ pub(crate) fn tear_cloths(
         item.connections.0 = links;
         let torn = layout.torn(topology);
         torn.keep_rule_links(rule_after);
-        *item.cloth = Cloth::Mesh(torn);
+        item.cloth.set_layout(torn);
         broken.extend(crossed);
         broken.sort_unstable();
         broken.dedup();

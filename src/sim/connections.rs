@@ -71,6 +71,44 @@ pub struct Connections {
     pub columns: u32,
 }
 
+/// What a cache built from some links remembers of them instead of a copy:
+/// the generation their owner gave them (a number that changes whenever
+/// the links change, see
+/// [`StepBuffers::set_links_generation`](crate::sim::integrate::StepBuffers::set_links_generation))
+/// and where the lists are in memory and how long they are. Two equal
+/// stamps name the same lists unchanged, so a cache whose stamp matches
+/// skips comparing or hashing the links.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) struct LinkStamp {
+    generation: u64,
+    /// Address and length of each list.
+    lists: [(usize, usize); 6],
+    /// [`Connections::columns`].
+    columns: u32,
+}
+
+/// Where `list` is in memory and how long it is.
+fn place<T>(list: &[T]) -> (usize, usize) {
+    (list.as_ptr() as usize, list.len())
+}
+
+impl LinkStamp {
+    /// The stamp of one list at `generation` (`None` without one: then no
+    /// stamp equals another and a cache compares the links).
+    pub(crate) fn of_list(generation: Option<u64>, list: &[Link]) -> Option<Self> {
+        generation.map(|generation| Self {
+            generation,
+            lists: [place(list), (0, 0), (0, 0), (0, 0), (0, 0), (0, 0)],
+            columns: 0,
+        })
+    }
+
+    /// Whether `now` names the same unchanged lists as `then`.
+    pub(crate) fn unchanged(then: Option<Self>, now: Option<Self>) -> bool {
+        now.is_some() && then == now
+    }
+}
+
 /// The fold-direction term of one crossing connection (MODEL.md §9.4b):
 /// ends `a`, `c`, hinge particle midway, and the hinge's four grid
 /// neighbours for its normal.
@@ -126,6 +164,22 @@ pub enum LinkFamily {
 }
 
 impl Connections {
+    /// The stamp of these links at `generation` (see [`LinkStamp`]).
+    pub(crate) fn stamp(&self, generation: Option<u64>) -> Option<LinkStamp> {
+        generation.map(|generation| LinkStamp {
+            generation,
+            lists: [
+                place(&self.structural),
+                place(&self.shear),
+                place(&self.bend),
+                place(&self.bend_diagonal),
+                place(&self.crease),
+                place(&self.fold),
+            ],
+            columns: self.columns,
+        })
+    }
+
     /// Builds every connection of a `cols × rows` grid whose particle
     /// `p = j·cols + i` rests at `rest[p]` (m).
     ///

@@ -113,6 +113,13 @@ pub trait Faces {
     fn faces(&self) -> impl Iterator<Item = [u32; 3]> + '_ {
         (0..self.face_count() as u32).map(|t| self.face(t))
     }
+
+    /// A number that names these triangles: equal generations mean equal
+    /// triangles, so caches built from them need not compare them again
+    /// (`None`, the default: no such number; caches compare the triangles).
+    fn generation(&self) -> Option<u64> {
+        None
+    }
 }
 
 impl Faces for Grid {

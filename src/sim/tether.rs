@@ -13,7 +13,7 @@ use std::collections::BinaryHeap;
 
 use bevy::math::Vec3;
 
-use crate::sim::connections::Connections;
+use crate::sim::connections::{Connections, LinkStamp};
 
 /// Marks a particle with no pinned particle to tether to.
 const NONE: u32 = u32::MAX;
@@ -29,6 +29,9 @@ pub struct Tethers {
     length: Vec<f32>,
     /// What the tethers were made for: particles, links and pins.
     key: u64,
+    /// The links' part of `key` and the stamp of the links it was
+    /// computed for.
+    links: (u64, Option<LinkStamp>),
 }
 
 impl Tethers {
@@ -36,7 +39,25 @@ impl Tethers {
     /// masses `inverse_masses` (1/kg, 0 pins) unless they are made already;
     /// returns whether they were (re)made.
     pub fn update(&mut self, connections: &Connections, inverse_masses: &[f32]) -> bool {
-        let key = key(connections, inverse_masses);
+        self.update_tracked(connections, None, inverse_masses)
+    }
+
+    /// [`update`](Self::update) for links whose owner names them by
+    /// `generation` (see
+    /// [`StepBuffers::set_links_generation`](crate::sim::integrate::StepBuffers::set_links_generation)):
+    /// while it stays the same, only the pins are compared.
+    pub fn update_tracked(
+        &mut self,
+        connections: &Connections,
+        generation: Option<u64>,
+        inverse_masses: &[f32],
+    ) -> bool {
+        let stamp = connections.stamp(generation);
+        if !LinkStamp::unchanged(self.links.1, stamp) {
+            self.links.0 = links_key(connections);
+        }
+        self.links.1 = stamp;
+        let key = key(self.links.0, inverse_masses);
         if key == self.key && self.anchor.len() == inverse_masses.len() {
             return false;
         }
@@ -124,15 +145,27 @@ impl Tethers {
     }
 }
 
-/// What tethers depend on: the particle count, the Type 1 links and which
-/// particles are pinned.
-fn key(connections: &Connections, inverse_masses: &[f32]) -> u64 {
-    let mut sum = inverse_masses.len() as u64;
-    let mut mix = |v: u64| sum = sum.rotate_left(7).wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ v;
+/// Mixes `v` into the checksum `sum`.
+fn mix(sum: &mut u64, v: u64) {
+    *sum = sum.rotate_left(7).wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ v;
+}
+
+/// A checksum of the Type 1 links: their ends and rest lengths.
+fn links_key(connections: &Connections) -> u64 {
+    let mut sum = 0;
     for l in connections.type1() {
-        mix(((l.a as u64) << 32) | l.b as u64);
-        mix(l.rest_length.to_bits() as u64);
+        mix(&mut sum, ((l.a as u64) << 32) | l.b as u64);
+        mix(&mut sum, l.rest_length.to_bits() as u64);
     }
+    sum
+}
+
+/// What tethers depend on: the particle count, the Type 1 links (their
+/// checksum `links`) and which particles are pinned.
+fn key(links: u64, inverse_masses: &[f32]) -> u64 {
+    let mut sum = inverse_masses.len() as u64;
+    let mut mix = |v: u64| mix(&mut sum, v);
+    mix(links);
     for (p, &w) in inverse_masses.iter().enumerate() {
         if w == 0.0 {
             mix(p as u64);

@@ -267,6 +267,9 @@ pub(crate) fn take_obstacles(
             spare.push(entry);
             continue;
         }
+        entry
+            .obstacle
+            .set_generation(crate::sim::grid::Faces::generation(cloth));
         entry.entity = Some(entity);
         entry.contact = Some(contact.clone());
         entry.asleep = asleep;
@@ -316,6 +319,8 @@ impl ClothContacts<'_> {
         if me.obstacle.x.len() != x.len() {
             return;
         }
+        let generation = me.obstacle.generation();
+        self.scratch.buffers.set_faces_generation(generation);
         let (from, _) = Self::times(sub);
         let before = out.len();
         self.scratch.held.clear();
@@ -392,7 +397,9 @@ impl ClothContacts<'_> {
         };
         let held_on = &self.scratch.held;
         crate::sim::collision::cloths::rub(held_on, v, held, (self.gravity, sub.dt));
-        let faces = &self.obstacles.entries[*own].obstacle.faces;
+        let me = &self.obstacles.entries[*own].obstacle;
+        self.scratch.buffers.set_faces_generation(me.generation());
+        let faces = &me.faces;
         // What each particle lies on: its contacts' normals, colliders' and
         // other cloths' (none without the implicit solve).
         let support = if held.len() == x.len() && self.scratch.support.len() == x.len() {

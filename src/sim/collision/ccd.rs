@@ -120,18 +120,28 @@ pub(super) struct EdgeList {
     pub(super) edges: Vec<[u32; 2]>,
     /// Face count and a hash of the faces the edges were listed for.
     tag: (usize, u64),
+    /// The generation ([`Faces::generation`]) and face count of the faces
+    /// the edges were listed for, if they had one.
+    generation: Option<(u64, usize)>,
     /// The largest particle index of the edges, or `None` without edges.
     pub(super) largest: Option<u32>,
 }
 
 impl EdgeList {
     /// Lists the edges of the `count` triangles `faces()` gives, unless
-    /// they are the ones listed last.
+    /// they are the ones listed last: the same `generation` (see
+    /// [`Faces::generation`]) and count, or else the same hash.
     pub(super) fn update<I: Iterator<Item = [u32; 3]>>(
         &mut self,
         faces: impl Fn() -> I,
         count: usize,
+        generation: Option<u64>,
     ) {
+        let generation = generation.map(|g| (g, count));
+        if generation.is_some() && generation == self.generation && !self.edges.is_empty() {
+            return;
+        }
+        self.generation = generation;
         let hash = faces().fold(0u64, |h, [a, b, c]| {
             let face = (a as u64) | (b as u64) << 21 | (c as u64) << 42;
             (h ^ face)
@@ -401,7 +411,9 @@ pub fn prevent_crossings(
     if !(thickness.is_finite() && thickness > 0.0) {
         return counts;
     }
-    buffers.edges.update(|| cloth.faces(), cloth.face_count());
+    buffers
+        .edges
+        .update(|| cloth.faces(), cloth.face_count(), cloth.generation());
     if buffers.edges.largest.is_some_and(|p| p as usize >= n) {
         // Triangles of another cloth's particles: nothing to keep apart.
         return counts;

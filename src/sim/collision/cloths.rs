@@ -105,6 +105,8 @@ pub struct ClothObstacle {
     /// A number no other take of any obstacle has (0: never taken): what
     /// was listed against this take can be used again while it holds.
     stamp: u64,
+    /// The generation of its triangles ([`Faces::generation`](crate::sim::grid::Faces::generation)), if known.
+    generation: Option<u64>,
 }
 
 /// A colliding pair as one of its cloths sees it.
@@ -141,6 +143,18 @@ pub fn finite_box(points: &[Vec3]) -> Option<(Vec3, Vec3)> {
 }
 
 impl ClothObstacle {
+    /// Names the triangles of this take by the generation their cloth
+    /// gave them ([`Faces::generation`](crate::sim::grid::Faces::generation)), so that the edges listed from
+    /// them are listed again only when it changes.
+    pub(crate) fn set_generation(&mut self, generation: Option<u64>) {
+        self.generation = generation;
+    }
+
+    /// See [`set_generation`](Self::set_generation).
+    pub(crate) fn generation(&self) -> Option<u64> {
+        self.generation
+    }
+
     /// Takes a cloth's surface at the start of a fixed step of `dt` s:
     /// `faces`, positions `x` (m), velocities `v` (m/s) and inverse masses
     /// `w` (1/kg); its triangles are hashed over the step grown by `pad` m
@@ -165,6 +179,7 @@ impl ClothObstacle {
         let this = reuse;
         static TAKES: AtomicU64 = AtomicU64::new(1);
         this.stamp = TAKES.fetch_add(1, Ordering::Relaxed);
+        this.generation = None;
         this.faces.clear();
         this.faces
             .extend(faces.filter(|t| t.iter().all(|&q| (q as usize) < n)));
@@ -304,6 +319,9 @@ pub struct ObstacleBuffers {
     own: CellTable,
     /// Own triangles' edges.
     own_edges: EdgeList,
+    /// The generation of the own triangles passed
+    /// ([`Faces::generation`](crate::sim::grid::Faces::generation)), if known.
+    faces_generation: Option<u64>,
     /// The other cloth's edges near one of this cloth's.
     their_edges: Vec<[u32; 2]>,
     /// Which of the other cloth's triangles a query of its edges listed.
@@ -311,6 +329,14 @@ pub struct ObstacleBuffers {
     /// The other cloths' edges near each own edge over the substep, per
     /// neighbour.
     pairs: Vec<EdgePairs>,
+}
+
+impl ObstacleBuffers {
+    /// Names the own triangles the next calls pass by their generation
+    /// ([`Faces::generation`](crate::sim::grid::Faces::generation); `None`: compare them).
+    pub(crate) fn set_faces_generation(&mut self, generation: Option<u64>) {
+        self.faces_generation = generation;
+    }
 }
 
 /// Per triangle, the number of the last query that listed it: a query lists

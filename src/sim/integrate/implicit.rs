@@ -67,6 +67,9 @@ pub struct ImplicitBuffers {
     mesh_coarse: MeshCoarse,
     /// Whether `mesh_coarse` holds this step's factored operator.
     mesh_coarse_active: bool,
+    /// The generation of the links the steps take, if their owner keeps
+    /// one ([`set_links_generation`](Self::set_links_generation)).
+    links_generation: Option<u64>,
     force: Vec<Vec3>,
     // The solver's vectors, component by component (see `operator`).
     rhs: Soa,
@@ -177,6 +180,13 @@ impl ImplicitBuffers {
         self.history = None;
         self.warm = false;
         self.contacts.clear();
+    }
+
+    /// Names the links of the following steps by `generation` (see
+    /// [`StepBuffers::set_links_generation`](crate::sim::integrate::StepBuffers::set_links_generation)).
+    pub(crate) fn set_links_generation(&mut self, generation: Option<u64>) {
+        self.links_generation = generation;
+        self.streams.set_links_generation(generation);
     }
 }
 
@@ -468,8 +478,10 @@ fn build(dynamics: &Dynamics, w: &[f32], alpha: f32, beta: f32, buffers: &mut Im
         op,
         coarse,
         mesh_coarse,
+        links_generation,
         ..
     } = buffers;
+    let generation = *links_generation;
     let (blocks, streams) = (&blocks[..], &*streams);
     let share = buffers.share;
     let extra = op.extra.clone();
@@ -487,7 +499,7 @@ fn build(dynamics: &Dynamics, w: &[f32], alpha: f32, beta: f32, buffers: &mut Im
             return (false, false);
         }
         if columns == 0 {
-            let mesh = mesh_coarse.begin(connections, w, mass_scale) && {
+            let mesh = mesh_coarse.begin(connections, generation, w, mass_scale) && {
                 mesh_coarse.add_pairs(w.len(), (blocks, streams.blocks()), (alpha, beta));
                 for (i, c) in &extra {
                     mesh_coarse.add_diagonal(*i as usize, c);

@@ -91,6 +91,20 @@ impl StepBuffers {
         self
     }
 
+    /// Names the connections the following steps take by `generation`, a
+    /// number the caller changes whenever they change (an edit, a tear, a
+    /// crease, other connections passed): while it stays the same, the
+    /// caches built from the links (the force streams, a mesh cloth's
+    /// coarse correction) trust them unchanged instead of comparing or
+    /// hashing them each step. `None`, the default, compares them every
+    /// step. [`ClothPlugin`](crate::ClothPlugin) sets it from the
+    /// [`ClothConnections`](crate::plugin::components::ClothConnections)
+    /// component's change ticks.
+    pub fn set_links_generation(&mut self, generation: Option<u64>) {
+        self.streams.set_links_generation(generation);
+        self.implicit.set_links_generation(generation);
+    }
+
     /// Forgets the implicit integrators' history (BDF2's last step and the
     /// contacts' holds), as after a teleport: the next BDF2 step is a
     /// backward-Euler one.

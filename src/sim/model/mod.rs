@@ -456,6 +456,43 @@ mod tests {
     }
 
     #[test]
+    fn streams_trust_links_of_one_generation_and_compare_them_on_a_new_one() {
+        let h = 0.1;
+        let (rest, mut conn) = flat_grid(11, h);
+        let mut rng = Rng(0x9e37_79b9_7f4a_7c15);
+        let x: Vec<Vec3> = rest.iter().map(|&p| p + rng.vec(0.5 * h)).collect();
+        let v = vec![Vec3::ZERO; x.len()];
+        let s = SimSettings::default();
+        let mut streams = ForceStreams::default();
+        let error = |conn: &Connections, streams: &mut ForceStreams| {
+            let mut want = vec![Vec3::ZERO; x.len()];
+            internal_forces(&s, conn, &x, &v, &mut want);
+            let mut got = vec![Vec3::ZERO; x.len()];
+            internal_forces_streamed(&s, conn, &x, &v, &mut got, streams);
+            relative_difference(&want, &got)
+        };
+        streams.set_links_generation(Some(1));
+        assert!(error(&conn, &mut streams) < 1e-5);
+        // Edited in place under the same generation: the streams trust the
+        // links they were built from and do not look at them.
+        for l in &mut conn.structural {
+            l.rest_length *= 0.9;
+        }
+        assert!(error(&conn, &mut streams) > 1e-2, "the links were compared");
+        // A new generation: compared, and rebuilt.
+        streams.set_links_generation(Some(2));
+        assert!(error(&conn, &mut streams) < 1e-5);
+        // Other lists under the same generation: compared too.
+        let mut other = conn.clone();
+        other.structural[3].rest_length *= 0.5;
+        assert!(error(&other, &mut streams) < 1e-5);
+        // Without a generation, every call compares.
+        streams.set_links_generation(None);
+        other.structural[4].rest_length *= 0.5;
+        assert!(error(&other, &mut streams) < 1e-5);
+    }
+
+    #[test]
     fn pinned_particles_get_no_acceleration_and_free_ones_gravity() {
         let rest = [Vec3::ZERO, Vec3::X, Vec3::new(2.0, 0.0, 0.0)];
         let conn = Connections::default();

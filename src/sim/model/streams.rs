@@ -37,7 +37,7 @@ pub(crate) use linearise::{Linearisation, StreamBlocks};
 
 use super::choi_ko::MIN_LENGTH;
 use super::kernel::{self, Law, Target};
-use crate::sim::connections::Link;
+use crate::sim::connections::{Link, LinkStamp};
 use crate::sim::soa::{Aligned, Soa};
 
 /// At most this many streams per family (a grid family has two steps).
@@ -73,6 +73,9 @@ pub struct ForceStreams {
     /// `g`, `g′` and `ℓ` again, for the calling thread while the helper
     /// thread uses the first (a linearisation split between them).
     second: [Vec<f32>; 3],
+    /// The generation of the links the families are passed, if the owner
+    /// keeps one ([`ForceStreams::set_links_generation`]).
+    generation: Option<u64>,
 }
 
 /// The streams of one family and the copy of the links they came from.
@@ -80,6 +83,8 @@ pub struct ForceStreams {
 struct FamilyStreams {
     /// The links at the last rebuild.
     source: Vec<Link>,
+    /// The stamp of the links last found equal to `source`.
+    stamp: Option<LinkStamp>,
     /// Number of particles at the last rebuild.
     particles: usize,
     streams: Vec<Stream>,
@@ -114,10 +119,15 @@ impl FamilyStreams {
     /// Rebuilds the streams unless `links` and `n` are what they were built
     /// from, reusing their memory (a crease that changes every step
     /// rebuilds every step without allocating, once the streams have grown).
-    fn sync(&mut self, links: &[Link], n: usize) {
-        if self.particles == n && same_links(&self.source, links) {
+    fn sync(&mut self, links: &[Link], n: usize, generation: Option<u64>) {
+        let stamp = LinkStamp::of_list(generation, links);
+        if self.particles == n
+            && (LinkStamp::unchanged(self.stamp, stamp) || same_links(&self.source, links))
+        {
+            self.stamp = stamp;
             return;
         }
+        self.stamp = stamp;
         self.particles = n;
         self.source.clear();
         self.source.extend_from_slice(links);
@@ -241,8 +251,16 @@ impl ForceStreams {
             self.families.resize_with(families.len(), Default::default);
         }
         for (cache, links) in self.families.iter_mut().zip(families) {
-            cache.sync(links, n);
+            cache.sync(links, n, self.generation);
         }
+    }
+
+    /// Names the links passed from now on by `generation`, a number their
+    /// owner changes whenever they change (`None`: compare them on every
+    /// call, the default). With it, a call whose lists are the ones last
+    /// seen at the same generation skips comparing them.
+    pub(crate) fn set_links_generation(&mut self, generation: Option<u64>) {
+        self.generation = generation;
     }
 
     /// [`pair_forces`](Self::pair_forces) without comparing the links: the

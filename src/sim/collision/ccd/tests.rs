@@ -147,9 +147,7 @@ fn edges_that_pass_through_each_other_cross_and_those_that_pass_by_do_not() {
 /// half, the upper half's step carrying it `drop` m down.
 fn folded(drop: f32) -> (Grid, Vec<Vec3>, Vec<Vec3>, Vec<f32>) {
     let cloth = ClothBuilder::new(9, 9).size(1.0, 1.0).build().unwrap();
-    let crate::plugin::components::Cloth::Grid(grid) = cloth.cloth else {
-        unreachable!()
-    };
+    let grid = cloth.cloth.grid().cloned().expect("a grid cloth");
     let h = 1.0 / 8.0;
     let mut start = vec![Vec3::ZERO; 81];
     let mut w = vec![1.0; 81];
@@ -213,7 +211,9 @@ fn impact_zones_undo_what_pushes_leave_crossed() {
     let (grid, start, mut x, w) = folded(0.6);
     let mut v = vec![Vec3::ZERO; 81];
     let mut buffers = CrossingBuffers::default();
-    buffers.edges.update(|| grid.faces(), grid.face_count());
+    buffers
+        .edges
+        .update(|| grid.faces(), grid.face_count(), None);
     let mut tests = 0;
     let stopped = stop_zones(
         &grid,
@@ -239,9 +239,7 @@ fn impact_zones_undo_what_pushes_leave_crossed() {
 fn random_steps_of_a_crumpled_cloth_end_without_a_crossing() {
     let mut rng = Lcg(7);
     let cloth = ClothBuilder::new(7, 7).size(0.6, 0.6).build().unwrap();
-    let crate::plugin::components::Cloth::Grid(grid) = cloth.cloth else {
-        unreachable!()
-    };
+    let grid = cloth.cloth.grid().cloned().expect("a grid cloth");
     let mut buffers = CrossingBuffers::default();
     let mut x = cloth.particles.positions.clone();
     let w = vec![1.0; x.len()];
@@ -313,9 +311,7 @@ fn features_that_start_in_one_place_or_one_plane_do_not_cross() {
     // the plane: its single-precision positions are off the plane by
     // rounding only.
     let cloth = ClothBuilder::new(6, 6).size(0.3, 0.3).build().unwrap();
-    let crate::plugin::components::Cloth::Grid(grid) = cloth.cloth else {
-        unreachable!()
-    };
+    let grid = cloth.cloth.grid().cloned().expect("a grid cloth");
     let tilt = bevy::math::Quat::from_rotation_x(0.7) * bevy::math::Quat::from_rotation_z(0.3);
     let far = Vec3::new(120.0, 35.0, -80.0);
     let start: Vec<Vec3> = cloth

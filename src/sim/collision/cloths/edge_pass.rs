@@ -206,9 +206,10 @@ pub fn predict_edge_contacts(
         marks,
         candidates,
         pairs,
+        faces_generation,
         ..
     } = buffers;
-    own_edges.update(|| faces.iter().copied(), faces.len());
+    own_edges.update(|| faces.iter().copied(), faces.len(), *faces_generation);
     let window = (time, time + dt);
     let listed = EdgePairs::slot(pairs, other, window, own_edges.edges.len());
     // The boxes listed are this much (m) larger than the substep's
@@ -327,9 +328,10 @@ pub fn undo_edge_crossings(
         candidates,
         their_edges,
         pairs,
+        faces_generation,
         ..
     } = buffers;
-    own_edges.update(|| faces.iter().copied(), faces.len());
+    own_edges.update(|| faces.iter().copied(), faces.len(), *faces_generation);
     let listed = pairs.iter().find(|p| p.stamp == other.stamp);
     let mut moved = 0;
     for (edge, &[a, b]) in own_edges.edges.iter().enumerate() {

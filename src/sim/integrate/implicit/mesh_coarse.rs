@@ -33,7 +33,7 @@ use bevy::math::{Mat3A, Vec3, Vec3A};
 
 use super::coarse::joining_pairs;
 use super::operator::{Soa, sym_matrix};
-use crate::sim::connections::Connections;
+use crate::sim::connections::{Connections, LinkStamp};
 use crate::sim::model::jacobian::Block;
 use crate::sim::model::streams::StreamBlocks;
 use level::Level;
@@ -62,6 +62,8 @@ pub(super) struct MeshCoarse {
     /// What the hierarchy was made for: particles, links and a checksum
     /// of the links' ends.
     key: (usize, usize, u64),
+    /// The stamp of the links last found to match `key`.
+    stamp: Option<LinkStamp>,
     /// First-level aggregate of each particle, pinned or not.
     grouped: Vec<u32>,
     /// This step's first-level aggregate of each particle, [`NONE`] for
@@ -83,10 +85,13 @@ pub(super) struct MeshCoarse {
 impl MeshCoarse {
     /// Starts the coarse operator of a step of the cloth with links
     /// `connections` and scaled masses `mass_scale / w` (kg; `w` in 1/kg,
-    /// 0 pins). `false` (no correction) for fewer than 64 particles.
+    /// 0 pins), whose links have generation `generation` if their owner
+    /// keeps one (see [`LinkStamp`]). `false` (no correction) for fewer
+    /// than 64 particles.
     pub(super) fn begin(
         &mut self,
         connections: &Connections,
+        generation: Option<u64>,
         inverse_masses: &[f32],
         mass_scale: f32,
     ) -> bool {
@@ -94,11 +99,15 @@ impl MeshCoarse {
         if n < 64 {
             return false;
         }
-        let key = key(connections, n);
-        if key != self.key {
-            self.levels = hierarchy(connections, n, &mut self.grouped);
-            self.key = key;
+        let stamp = connections.stamp(generation);
+        if self.key.0 != n || !LinkStamp::unchanged(self.stamp, stamp) {
+            let key = key(connections, n);
+            if key != self.key {
+                self.levels = hierarchy(connections, n, &mut self.grouped);
+                self.key = key;
+            }
         }
+        self.stamp = stamp;
         self.aggregate.clear();
         self.aggregate.extend(
             self.grouped

@@ -156,7 +156,7 @@ mod tests {
     fn type2_stream_forces_match_the_link_by_link_magnitudes() {
         let (x, links) = squeezed_grid();
         let mut family = FamilyStreams::default();
-        family.sync(&links, x.len());
+        family.sync(&links, x.len(), None);
         assert_eq!(family.streams.len(), 2, "one stream per step");
         let span = family.streams.iter().map(|s| s.lo + s.padded_span()).max();
         let mut xs = Soa::default();

@@ -16,7 +16,7 @@ fn disc_hierarchy(rings: u32, pinned: impl Fn(usize) -> bool) -> (Connections, M
         .map(|p| if pinned(p) { 0.0 } else { 1.0 })
         .collect();
     let mut c = MeshCoarse::default();
-    assert!(c.begin(&links, &w, 1.0));
+    assert!(c.begin(&links, None, &w, 1.0));
     for (k, l) in links.type1().enumerate() {
         let s = k as f32;
         let u = Vec3::new(s.sin(), (0.7 * s).cos(), 0.3).normalize();
@@ -159,7 +159,7 @@ fn scraps_that_do_not_aggregate_take_a_sweep_on_the_last_level() {
     let links = Connections::default();
     let w = vec![1.0; 300];
     let mut c = MeshCoarse::default();
-    assert!(c.begin(&links, &w, 1.0));
+    assert!(c.begin(&links, None, &w, 1.0));
     assert!(c.finish());
     assert!(!c.exact);
     assert!(c.matrix.is_empty(), "no dense matrix of 900² entries");
