@@ -669,3 +669,129 @@ fn a_press_next_to_a_cut_picks_the_piece_it_hits() {
     }
     assert_eq!(confused, split.len());
 }
+
+/// Whether `connections` link `a` and `b` by any link.
+fn linked(connections: &ClothConnections, a: u32, b: u32) -> bool {
+    [
+        &connections.structural,
+        &connections.shear,
+        &connections.bend,
+        &connections.bend_diagonal,
+    ]
+    .iter()
+    .flat_map(|family| family.iter())
+    .any(|l| (l.a, l.b) == (a, b) || (l.a, l.b) == (b, a))
+}
+
+#[test]
+fn links_and_particles_named_by_index_open_the_cloth_there() {
+    let n = 8;
+    let mut app = app_with_meshes();
+    record_tears(&mut app);
+    let cloth = app.world_mut().spawn(banner(n, ClothMaterial::COTTON)).id();
+    run(&mut app, 30);
+    // Requests that name nothing: no cloth, pairs that are not links,
+    // particles out of range, normals that are no direction.
+    let messages = [
+        ClothCut {
+            links: vec![(0, 1)],
+            splits: vec![(3, Vec3::X)],
+            ..default()
+        },
+        ClothCut::links(cloth, [(0, n * n - 1), (999, 1000), (5, 5), (u32::MAX, 0)]),
+        ClothCut {
+            cloth: Some(cloth),
+            splits: vec![(999, Vec3::X), (10, Vec3::NAN), (10, Vec3::ZERO)],
+            ..default()
+        },
+    ];
+    for m in messages {
+        app.world_mut().write_message(m);
+    }
+    app.update();
+    assert!(app.world().resource::<Torn>().0.is_empty());
+    assert_eq!(particles(&app, cloth).len(), (n * n) as usize);
+    assert!(app.world().get::<Cloth>(cloth).unwrap().grid().is_some());
+    // A buttonhole: one particle split by a vertical plane; the cloth opens
+    // above and below it, and nothing bends across the opening.
+    let p = 3 * n + 3;
+    let links = |app: &App| app.world().get::<ClothConnections>(cloth).unwrap().clone();
+    assert!(linked(&links(&app), p - 1, p + 1));
+    app.world_mut()
+        .write_message(ClothCut::split(cloth, p, Vec3::X));
+    app.update();
+    let torn = app.world().resource::<Torn>().0.clone();
+    assert_eq!(torn.len(), 1);
+    assert_eq!(torn[0].split, vec![(p, n * n)]);
+    assert_eq!(particles(&app, cloth).len(), (n * n + 1) as usize);
+    assert!(
+        !linked(&links(&app), p - 1, p + 1),
+        "a bend across the hole"
+    );
+    assert!(app.world().get::<Cloth>(cloth).unwrap().grid().is_none());
+    assert_valid(&app, cloth);
+    // A seam unpicked: every Type 1 link between rows 5 and 6.
+    let row = |q: u32| (q < n * n).then_some(q / n);
+    let seam: Vec<(u32, u32)> = links(&app)
+        .type1()
+        .map(|l| (l.a.min(l.b), l.a.max(l.b)))
+        .filter(|&(a, b)| row(a) == Some(5) && row(b) == Some(6))
+        .collect();
+    assert!(seam.len() >= n as usize);
+    app.world_mut()
+        .write_message(ClothCut::links(cloth, seam.iter().map(|&(a, b)| (b, a))));
+    app.update();
+    let torn = app.world().resource::<Torn>().0.clone();
+    assert_eq!(torn.len(), 2);
+    assert!(seam.iter().all(|pair| torn[1].links.contains(pair)));
+    run(&mut app, 60);
+    assert_valid(&app, cloth);
+    let x = &particles(&app, cloth).positions;
+    let fallen = x.iter().filter(|x| x.y < 0.5).count();
+    let up = x.iter().filter(|x| x.y > 1.2).count();
+    assert!(
+        fallen >= 2 * n as usize && up >= 6 * n as usize,
+        "{fallen} fell, {up} hang"
+    );
+}
+
+#[test]
+fn random_links_and_splits_by_index_never_break_the_cloth() {
+    let n = 5;
+    let mut app = app();
+    record_tears(&mut app);
+    let cloth = app
+        .world_mut()
+        .spawn((banner(n, ClothMaterial::COTTON), ClothTethers::default()))
+        .id();
+    app.update();
+    let mut rng = Rng::new(23);
+    for frame in 0..600 {
+        let count = particles(&app, cloth).len() as u32;
+        let any = |rng: &mut Rng| (rng.unit() * (count + 3) as f32) as u32;
+        let message = if frame % 2 == 0 {
+            // Mostly links of the cloth, sometimes any pair at all.
+            let links = app.world().get::<ClothConnections>(cloth).unwrap();
+            let type1: Vec<(u32, u32)> = links.type1().map(|l| (l.a, l.b)).collect();
+            let pair = match type1.len() {
+                0 => (any(&mut rng), any(&mut rng)),
+                len if frame % 6 != 0 => type1[(rng.unit() * len as f32) as usize % len],
+                _ => (any(&mut rng), any(&mut rng)),
+            };
+            ClothCut::links(cloth, [pair])
+        } else {
+            let normal = match frame % 7 {
+                0 => Vec3::NAN,
+                1 => Vec3::ZERO,
+                _ => Vec3::new(rng.signed(), rng.signed(), rng.signed()),
+            };
+            ClothCut::split(cloth, any(&mut rng), normal)
+        };
+        app.world_mut().write_message(message);
+        app.update();
+        assert_valid(&app, cloth);
+    }
+    let p = particles(&app, cloth);
+    assert!(p.len() > (n * n) as usize && app.world().resource::<Torn>().0.len() > 20);
+    assert_rule_links_kept(&app, cloth);
+}

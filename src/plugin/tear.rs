@@ -133,12 +133,28 @@ impl ClothTearing {
 ///     cuts.write(ClothCut::swept(None, from, to));
 /// }
 /// ```
-#[derive(Message, Clone, Debug, PartialEq)]
+///
+/// A cut can also name what to open by particle index, on one cloth
+/// ([`ClothCut::links`], [`ClothCut::split`]): a seam unpicked link by
+/// link, a buttonhole, a hole a game opens where something passed through.
+#[derive(Message, Clone, Debug, Default, PartialEq)]
 pub struct ClothCut {
     /// The cloth to cut, or every cloth (`None`).
     pub cloth: Option<Entity>,
     /// The cutting surface, triangles in world space (m).
     pub blades: Vec<Blade>,
+    /// Type 1 links to break, as particle pairs of [`cloth`](Self::cloth)
+    /// (ignored without one): each opens the cloth across it at one end,
+    /// as a tear there would ([`sim::tear::break_links`](crate::sim::tear::break_links)).
+    /// A pair that is not a link, or out of range, is skipped.
+    pub links: Vec<(u32, u32)>,
+    /// Particles of [`cloth`](Self::cloth) to split (ignored without one),
+    /// each by the plane through it with the given normal (world space, any
+    /// length): its triangles on the normal's side keep it, the others get
+    /// a copy, and the cloth opens between them
+    /// ([`sim::tear::split_particles`](crate::sim::tear::split_particles)).
+    /// A particle out of range or a zero or non-finite normal is skipped.
+    pub splits: Vec<(u32, Vec3)>,
 }
 
 impl ClothCut {
@@ -147,6 +163,27 @@ impl ClothCut {
         Self {
             cloth,
             blades: Blade::quad(a, b, c, d).to_vec(),
+            ..Self::default()
+        }
+    }
+
+    /// Breaks the Type 1 links between the particle pairs `links` of
+    /// `cloth` (see [`ClothCut::links`](Self::links)).
+    pub fn links(cloth: Entity, links: impl IntoIterator<Item = (u32, u32)>) -> Self {
+        Self {
+            cloth: Some(cloth),
+            links: links.into_iter().collect(),
+            ..Self::default()
+        }
+    }
+
+    /// Splits particle `particle` of `cloth` by the plane through it with
+    /// normal `normal` (world space; see [`ClothCut::splits`](Self::splits)).
+    pub fn split(cloth: Entity, particle: u32, normal: Vec3) -> Self {
+        Self {
+            cloth: Some(cloth),
+            splits: vec![(particle, normal)],
+            ..Self::default()
         }
     }
 
@@ -301,6 +338,27 @@ pub(crate) fn tear_cloths(
             .filter(|c| c.cloth.is_none_or(|e| e == entity))
             .flat_map(|c| c.blades.iter().copied())
             .collect();
+        // What game code names by index: links that are Type 1 links, and
+        // particles to split.
+        let mine = || cuts.iter().filter(|c| c.cloth == Some(entity));
+        let mut asked: Vec<(u32, u32)> = mine()
+            .flat_map(|c| c.links.iter().map(|&(a, b)| (a.min(b), a.max(b))))
+            .collect();
+        if !asked.is_empty() {
+            asked.sort_unstable();
+            asked.dedup();
+            let mut found: Vec<(u32, u32)> = item
+                .connections
+                .type1()
+                .map(|l| (l.a.min(l.b), l.a.max(l.b)))
+                .filter(|pair| asked.binary_search(pair).is_ok())
+                .collect();
+            found.sort_unstable();
+            found.dedup();
+            found.retain(|pair| !broken.contains(pair));
+            broken.extend(found);
+        }
+        let splits: Vec<(u32, Vec3)> = mine().flat_map(|c| c.splits.iter().copied()).collect();
         if !blades.is_empty() {
             // A cut that misses the cloth's box costs it nothing more.
             let (lo, hi) = x
@@ -313,13 +371,14 @@ pub(crate) fn tear_cloths(
                 a.min(b).min(c).cmple(hi).all() && a.max(b).max(c).cmpge(lo).all()
             });
         }
-        if broken.is_empty() && blades.is_empty() {
+        if broken.is_empty() && blades.is_empty() && splits.is_empty() {
             continue;
         }
         let layout = item.cloth.layout().clone();
         let mut topology = layout.topology().clone();
         let adjacency = Adjacency::new(&topology);
         let mut plan = tear::break_links(x, &broken);
+        plan.extend(tear::split_particles(x, &splits));
         let (cut, crossed) = tear::cut(&topology, x, &blades);
         plan.extend(cut);
         let outcome = tear::apply(&mut topology, &adjacency, x, &plan);

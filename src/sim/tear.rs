@@ -222,6 +222,24 @@ pub fn break_links(x: &[Vec3], links: &[(u32, u32)]) -> TearPlan {
     plan
 }
 
+/// The plan that splits each particle `p` of `particles` by the plane
+/// through it (at positions `x`, m) with normal `normal`: its triangles on
+/// the normal's side keep it, the others get a copy, and the edges between
+/// them open. Each is a crack of its own. A particle out of range, or a
+/// normal that is zero or not finite, is skipped.
+pub fn split_particles(x: &[Vec3], particles: &[(u32, Vec3)]) -> TearPlan {
+    let mut plan = TearPlan::default();
+    for &(p, normal) in particles {
+        let (Some(&point), Some(normal)) = (x.get(p as usize), normal.try_normalize()) else {
+            continue;
+        };
+        plan.splits
+            .push((p, Plane { point, normal }, None, plan.cracks));
+        plan.cracks += 1;
+    }
+    plan
+}
+
 /// The plan that cuts `topology` at positions `x` (m) along `blades`: for
 /// every mesh edge that crosses a blade, its end nearer the blade's plane
 /// is split by that plane. Also returns the Type 1 links the blades cross
