@@ -128,6 +128,7 @@ pub mod prelude {
     #[cfg(feature = "picking")]
     pub use crate::plugin::picking::{ClothPicking, ClothPointer};
     pub use crate::plugin::schedule::ClothPause;
+    pub use crate::plugin::sew::{ClothSew, ClothSewn};
     pub use crate::plugin::skin::{ATTRIBUTE_FREEDOM, ClothSkin};
     pub use crate::plugin::sleep::{ClothSleep, WakeCloth};
     pub use crate::plugin::tear::{ClothCut, ClothTearing, ClothTorn};

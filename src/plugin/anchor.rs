@@ -58,6 +58,25 @@ pub struct Anchor {
 pub struct ClothAnchors(pub Vec<Anchor>, #[reflect(ignore)] Vec<u32>);
 
 impl ClothAnchors {
+    /// Follows a seam ([`ClothSew`](crate::plugin::sew::ClothSew)): each
+    /// particle `p` becomes `map[p]`; of two anchors that now carry one
+    /// particle, the first stays.
+    pub(crate) fn remap(&mut self, map: &[u32]) {
+        let at = |p: u32| map.get(p as usize).copied().unwrap_or(p);
+        let mut seen = Vec::new();
+        self.0.retain_mut(|a| {
+            a.particle = at(a.particle);
+            let first = !seen.contains(&a.particle);
+            seen.push(a.particle);
+            first
+        });
+        for p in &mut self.1 {
+            *p = at(*p);
+        }
+        self.1.sort_unstable();
+        self.1.dedup();
+    }
+
     /// Adds particle `particle` carried by `target`, keeping its current
     /// offset from the target.
     pub fn with(mut self, particle: u32, target: Entity) -> Self {

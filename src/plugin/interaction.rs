@@ -74,6 +74,25 @@ pub struct ClothGrabs {
 }
 
 impl ClothGrabs {
+    /// Follows a seam ([`ClothSew`](crate::plugin::sew::ClothSew)): each
+    /// particle `p` becomes `map[p]`; of two grabs that now hold one
+    /// particle, the first stays.
+    pub(crate) fn remap(&mut self, map: &[u32]) {
+        let at = |p: u32| map.get(p as usize).copied().unwrap_or(p);
+        let mut seen = Vec::new();
+        self.grabs.retain_mut(|g| {
+            g.particle = at(g.particle);
+            let first = !seen.contains(&g.particle);
+            seen.push(g.particle);
+            first
+        });
+        for p in &mut self.released {
+            *p = at(*p);
+        }
+        self.released.sort_unstable();
+        self.released.dedup();
+    }
+
     /// Holds `particle` (replacing any grab of it) and pulls it to `target` (m).
     pub fn grab(&mut self, particle: u32, target: Vec3, mode: GrabMode) {
         self.release(particle);

@@ -195,6 +195,31 @@ impl MeshLayout {
         Self::from_parts(topology, vertex_particles, Some(kept_uvs), indices)
     }
 
+    /// This layout after the seam `seam` ([`sew`](crate::sim::sew)) that
+    /// left `topology`: every rendered vertex shows the particle its own
+    /// joined, UVs kept (a seam stays a UV seam), and a rendered triangle
+    /// left with a repeated particle is dropped.
+    pub fn sewn(&self, topology: MeshTopology, seam: &crate::sim::sew::Seam) -> Self {
+        let at = |p: u32| seam.map.get(p as usize).copied().unwrap_or(p);
+        let vertex_particles: Vec<u32> = self.vertex_particles().iter().map(|&p| at(p)).collect();
+        let indices = self
+            .indices()
+            .chunks_exact(3)
+            .filter(|t| {
+                let [a, b, c] = [t[0], t[1], t[2]].map(|r| vertex_particles[r as usize]);
+                a != b && b != c && c != a
+            })
+            .flatten()
+            .copied()
+            .collect();
+        Self::from_parts(
+            topology,
+            vertex_particles,
+            Some(self.uvs_or_projected()),
+            indices,
+        )
+    }
+
     /// The welded particles and triangles.
     pub fn topology(&self) -> &MeshTopology {
         &self.0.topology

@@ -39,6 +39,7 @@ pub mod pose;
 #[cfg(feature = "rapier")]
 pub mod rapier;
 pub mod schedule;
+pub mod sew;
 pub mod skin;
 pub mod sleep;
 pub mod systems;
@@ -175,6 +176,8 @@ impl Plugin for ClothPlugin {
             .register_type::<wind::ClothWind>()
             .add_message::<events::ClothDiverged>()
             .add_message::<tear::ClothCut>()
+            .add_message::<sew::ClothSew>()
+            .register_type::<sew::ClothSewn>()
             .register_type::<tear::ClothTearing>()
             .register_type::<tear::ClothTorn>()
             .register_type::<events::ClothGrabbed>()
@@ -224,6 +227,9 @@ impl Plugin for ClothPlugin {
                         interaction::snap_grabs.run_if(interaction::grabs_active),
                         skin::limit_skins.run_if(any_with_component::<skin::ClothSkin>),
                         tear::tear_cloths.run_if(tear::tearing_wanted),
+                        sew::sew_cloths.run_if(
+                            bevy::ecs::schedule::common_conditions::on_message::<sew::ClothSew>,
+                        ),
                         systems::finish_step,
                         schedule::consume_step.run_if(schedule::paused),
                     )

@@ -80,6 +80,16 @@ pub struct PointerGrab {
 pub struct PointerGrabs(HashMap<PointerId, PointerGrab>);
 
 impl PointerGrabs {
+    /// Follows a seam of `cloth` ([`ClothSew`](crate::plugin::sew::ClothSew)):
+    /// each held particle of it becomes `map[particle]`.
+    pub(crate) fn remap(&mut self, cloth: Entity, map: &[u32]) {
+        for grab in self.0.values_mut().filter(|g| g.cloth == cloth) {
+            if let Some(&to) = map.get(grab.particle as usize) {
+                grab.particle = to;
+            }
+        }
+    }
+
     /// Whether any pointer holds a particle (an orbit camera should then
     /// leave the mouse alone).
     pub fn active(&self) -> bool {

@@ -61,6 +61,7 @@ pub mod material;
 pub mod model;
 pub mod particles;
 pub mod settings;
+pub mod sew;
 pub mod skin;
 pub mod sleep;
 pub(crate) mod soa;

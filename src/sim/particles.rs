@@ -53,6 +53,21 @@ impl PinOwner {
     }
 }
 
+/// What a seam sums of the particles it joins ([`Particles::sew`]).
+#[derive(Clone)]
+struct Joined {
+    /// Mass, kg.
+    mass: f32,
+    /// Mass times position, kg·m.
+    mx: Vec3,
+    /// Momentum, kg·m/s.
+    mv: Vec3,
+    /// Position (m) and velocity (m/s) of the first pinned particle.
+    held: Option<(Vec3, Vec3)>,
+    /// Pin owners.
+    pins: u8,
+}
+
 impl Particles {
     /// Particles at rest at `positions` (m) with masses `masses` (kg, > 0).
     pub fn new(positions: Vec<Vec3>, masses: Vec<f32>) -> Self {
@@ -150,6 +165,59 @@ impl Particles {
     /// Whether particle `i` is pinned (`false` when out of range).
     pub fn is_pinned(&self, i: usize) -> bool {
         self.inverse_masses.get(i) == Some(&0.0)
+    }
+
+    /// Joins the particles `seam` sews together ([`Seam`](crate::sim::sew::Seam)):
+    /// each joined particle has the sum of their masses and their pins; a
+    /// free one sits at their mass-weighted mean position with their
+    /// mass-weighted mean velocity (their momentum kept), a pinned one where
+    /// its first pinned particle was. Particles of another count than the
+    /// seam's are left alone.
+    pub fn sew(&mut self, seam: &crate::sim::sew::Seam) {
+        let n = self.len();
+        if seam.map.len() != n || self.velocities.len() != n || self.masses.len() != n {
+            return;
+        }
+        self.pins.resize(n, 0);
+        let mut joined: Vec<Joined> = (0..n)
+            .map(|i| {
+                let (m, x, v) = (self.masses[i], self.positions[i], self.velocities[i]);
+                let pinned = self.inverse_masses[i] == 0.0;
+                let pins = if pinned && self.pins[i] == 0 {
+                    PinOwner::Game.bit()
+                } else {
+                    self.pins[i]
+                };
+                Joined {
+                    mass: m,
+                    mx: m * x,
+                    mv: m * v,
+                    held: pinned.then_some((x, v)),
+                    pins,
+                }
+            })
+            .collect();
+        seam.merge(&mut joined, |kept, other| {
+            kept.mass += other.mass;
+            kept.mx += other.mx;
+            kept.mv += other.mv;
+            kept.held = kept.held.or(other.held);
+            kept.pins |= other.pins;
+        });
+        self.positions.clear();
+        self.velocities.clear();
+        self.masses.clear();
+        self.inverse_masses.clear();
+        self.pins.clear();
+        for j in joined {
+            let (x, v) = j.held.unwrap_or((j.mx / j.mass, j.mv / j.mass));
+            self.positions.push(x);
+            self.velocities.push(v);
+            self.masses.push(j.mass);
+            self.inverse_masses
+                .push(if j.held.is_some() { 0.0 } else { 1.0 / j.mass });
+            self.pins.push(if j.held.is_some() { j.pins } else { 0 });
+        }
     }
 
     /// Appends a copy of particle `i` at its position and velocity that

@@ -485,6 +485,11 @@ struct Edge {
     opposite: [u32; 2],
 }
 
+/// How many edges of `triangles` more than two of them share.
+pub(crate) fn non_manifold_edges(triangles: &[[u32; 3]]) -> usize {
+    edges(triangles).iter().filter(|(_, e)| e.count > 2).count()
+}
+
 /// Every edge of `triangles`, keyed by its particles in increasing order,
 /// sorted by key; the opposite particles in the triangles' order.
 fn edges(triangles: &[[u32; 3]]) -> Vec<((u32, u32), Edge)> {

@@ -1,6 +1,8 @@
 //! Scenes shared by the integration tests.
 #![allow(dead_code, reason = "each test binary uses a different subset")]
 
+pub mod torn;
+
 use bevy::mesh::{Indices, PrimitiveTopology, VertexAttributeValues};
 use bevy::prelude::*;
 use bevy::time::TimeUpdateStrategy;
