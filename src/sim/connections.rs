@@ -163,6 +163,16 @@ pub enum LinkFamily {
     BendDiagonal,
 }
 
+impl LinkFamily {
+    /// Every family, in the order of [`Connections`]' fields.
+    pub const ALL: [Self; 4] = [
+        Self::Structural,
+        Self::Shear,
+        Self::Bend,
+        Self::BendDiagonal,
+    ];
+}
+
 impl Connections {
     /// The stamp of these links at `generation` (see [`LinkStamp`]).
     pub(crate) fn stamp(&self, generation: Option<u64>) -> Option<LinkStamp> {

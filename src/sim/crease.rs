@@ -244,12 +244,7 @@ impl CreaseRecord {
         if wanted.is_empty() {
             return;
         }
-        for family in [
-            LinkFamily::Structural,
-            LinkFamily::Shear,
-            LinkFamily::Bend,
-            LinkFamily::BendDiagonal,
-        ] {
+        for family in LinkFamily::ALL {
             for (j, m) in new.family(family).iter().enumerate() {
                 if let Some(&rest) = wanted.get(&(family, key(from(m.a), from(m.b)))) {
                     self.changed.push((family, j, rest));

@@ -164,12 +164,7 @@ pub fn rebuild(
 ) -> Connections {
     let key = |a: u32, b: u32| (a.min(b), a.max(b));
     let mut out = Connections::default();
-    for family in [
-        LinkFamily::Structural,
-        LinkFamily::Shear,
-        LinkFamily::Bend,
-        LinkFamily::BendDiagonal,
-    ] {
+    for family in LinkFamily::ALL {
         let ruled: std::collections::HashSet<(u32, u32)> = before
             .family(family)
             .iter()

@@ -456,12 +456,7 @@ pub fn rebuild(
         .map(|(_, &o)| o)
         .collect();
     let mut out = Connections::default();
-    for family in [
-        LinkFamily::Structural,
-        LinkFamily::Shear,
-        LinkFamily::Bend,
-        LinkFamily::BendDiagonal,
-    ] {
+    for family in LinkFamily::ALL {
         let ruled: HashSet<(u32, u32)> = before
             .family(family)
             .iter()

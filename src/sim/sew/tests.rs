@@ -15,12 +15,7 @@ fn grid(n: u32) -> MeshTopology {
 
 /// Every family's links sorted by their ends.
 fn sorted(mut c: Connections) -> Connections {
-    for family in [
-        LinkFamily::Structural,
-        LinkFamily::Shear,
-        LinkFamily::Bend,
-        LinkFamily::BendDiagonal,
-    ] {
+    for family in LinkFamily::ALL {
         c.family_mut(family)
             .sort_unstable_by_key(|l| (l.a.min(l.b), l.a.max(l.b)));
     }

@@ -7,12 +7,7 @@ use super::*;
 use crate::sim::connections::{Link, LinkFamily};
 use crate::sim::grid::Grid;
 
-const FAMILIES: [LinkFamily; 4] = [
-    LinkFamily::Structural,
-    LinkFamily::Shear,
-    LinkFamily::Bend,
-    LinkFamily::BendDiagonal,
-];
+const FAMILIES: [LinkFamily; 4] = LinkFamily::ALL;
 
 /// An `n × n` grid 1 m across, at rest in the xz plane.
 fn grid(n: u32) -> (Grid, MeshTopology) {

@@ -33,12 +33,7 @@ fn pairs(links: &[Link], map: impl Fn(u32) -> u32) -> BTreeSet<(u32, u32)> {
         .collect()
 }
 
-const FAMILIES: [LinkFamily; 4] = [
-    LinkFamily::Structural,
-    LinkFamily::Shear,
-    LinkFamily::Bend,
-    LinkFamily::BendDiagonal,
-];
+const FAMILIES: [LinkFamily; 4] = LinkFamily::ALL;
 
 #[test]
 fn a_subdivided_plane_gives_the_grid_builders_links() {
