@@ -628,4 +628,11 @@ fn a_grid_cloth_keeps_its_fast_path_until_its_topology_changes() {
     cloth.set_layout(disc.clone());
     assert!(cloth.grid().is_none());
     assert_eq!(cloth.mesh(), Some(&disc));
+    // Grids with no triangles make a cloth without a panic.
+    for (cols, rows) in [(0, 0), (1, 5), (5, 1), (0, 3)] {
+        let size = Vec2::ONE;
+        let cloth = Cloth::from(bevy_cloth::sim::grid::Grid { cols, rows, size });
+        assert_eq!(cloth.len(), (cols * rows) as usize);
+        assert!(cloth.layout().topology().triangles.is_empty());
+    }
 }

@@ -137,7 +137,7 @@ impl MeshLayout {
     /// grid's UVs (over `[0, 1]²` along its columns and rows).
     pub fn from_grid(grid: &Grid) -> Self {
         let topology = MeshTopology::from_grid(grid);
-        let (cu, rv) = ((grid.cols - 1) as f32, (grid.rows - 1) as f32);
+        let (cu, rv) = ((grid.cols.max(2) - 1) as f32, (grid.rows.max(2) - 1) as f32);
         let uvs = (0..grid.len() as u32)
             .map(|p| [(p % grid.cols) as f32 / cu, (p / grid.cols) as f32 / rv])
             .collect();

@@ -55,7 +55,7 @@ impl Grid {
 
     /// Number of triangles, `2(cols−1)(rows−1)`.
     pub fn triangle_count(&self) -> usize {
-        2 * ((self.cols - 1) * (self.rows - 1)) as usize
+        2 * (self.cols.saturating_sub(1) * self.rows.saturating_sub(1)) as usize
     }
 
     /// Triangle `t`: quad `q = t/2` (row-major) split into `(a, d, c)` and
