@@ -317,6 +317,30 @@ mod tests {
     use super::*;
 
     #[test]
+    fn a_seam_moves_grabs_and_keeps_one_per_particle() {
+        let mut grabs = ClothGrabs::default();
+        grabs.grab(4, Vec3::X, GrabMode::Kinematic);
+        grabs.grab(3, Vec3::Y, GrabMode::Kinematic);
+        grabs.grab(0, Vec3::Z, GrabMode::Kinematic);
+        // 3 is sewn onto 1 and 4 moves down to 3.
+        grabs.remap(&[0, 1, 2, 1, 3]);
+        let held: Vec<(u32, Vec3)> = grabs
+            .grabs()
+            .iter()
+            .map(|g| (g.particle, g.target))
+            .collect();
+        assert_eq!(held, vec![(3, Vec3::X), (1, Vec3::Y), (0, Vec3::Z)]);
+        // 1 sewn onto 0: of the two grabs now on 0, the first stays.
+        grabs.remap(&[0, 0, 1, 2]);
+        let held: Vec<(u32, Vec3)> = grabs
+            .grabs()
+            .iter()
+            .map(|g| (g.particle, g.target))
+            .collect();
+        assert_eq!(held, vec![(2, Vec3::X), (0, Vec3::Y)]);
+    }
+
+    #[test]
     fn grab_release_and_nearest() {
         let particles = ClothParticles::new(vec![Vec3::ZERO, Vec3::X, Vec3::Y], vec![1.0; 3]);
         let mut grabs = ClothGrabs::default();

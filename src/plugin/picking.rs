@@ -280,3 +280,32 @@ fn let_go(pointer: PointerId, mut held: ResMut<PointerGrabs>, mut cloths: Query<
         grabs.release(particle);
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_seam_moves_the_pointers_grab_of_its_cloth_only() {
+        let (cloth, other) = (
+            Entity::from_raw_u32(1).unwrap(),
+            Entity::from_raw_u32(2).unwrap(),
+        );
+        let grab = |cloth, particle| PointerGrab {
+            cloth,
+            particle,
+            camera: Entity::PLACEHOLDER,
+            depth: 1.0,
+        };
+        let mut held = PointerGrabs::default();
+        held.0.insert(PointerId::Mouse, grab(cloth, 4));
+        held.0.insert(PointerId::Touch(1), grab(other, 4));
+        held.remap(cloth, &[0, 1, 2, 1, 3]);
+        assert_eq!(held.0[&PointerId::Mouse].particle, 3);
+        assert_eq!(
+            held.0[&PointerId::Touch(1)].particle,
+            4,
+            "another cloth's grab"
+        );
+    }
+}
