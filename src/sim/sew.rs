@@ -196,11 +196,6 @@ pub fn rebuild(
         links.sort_unstable_by_key(|l| key(l.a, l.b));
         links.dedup_by_key(|l| key(l.a, l.b));
     }
-    let apart = |ends: &[u32]| {
-        ends.iter()
-            .enumerate()
-            .all(|(i, a)| ends[i + 1..].iter().all(|b| a != b))
-    };
     out.crease = old
         .crease
         .iter()
@@ -221,7 +216,7 @@ pub fn rebuild(
             around: t.around.map(|p| seam.at(p)),
             ..*t
         })
-        .filter(|t| apart(&[t.a, t.hinge, t.c]))
+        .filter(|t| t.a != t.hinge && t.hinge != t.c && t.c != t.a)
         .collect();
     out
 }
