@@ -7,11 +7,16 @@
 //! two top corners, released flat, every default but sleep), with the
 //! implicit solve's helper thread on (the default) and off. The busy
 //! threads spin on arithmetic while a runner's block runs under load and
-//! sleep otherwise. After 60 frames of warm-up, the runs with the helper on
-//! and off are timed in turns of 20 frames with the cores idle, then the
-//! same with the busy threads on (a late helper is left alone for up to
-//! 4 s, which would reach into idle turns taken in between). Printed: the
-//! median and range of the ms per frame, and loaded over idle.
+//! sleep otherwise. After 60 frames of warm-up, each of [`ROUNDS`] rounds
+//! rests the cores for [`REST`] (longer than a late helper is left alone,
+//! so that the idle frames run as an idle game's do), runs each cloth
+//! [`WARM_UP`] frames untimed, then times the runs with the helper on and
+//! off in turns of 20 frames with the cores idle, then the same with the
+//! busy threads on. A round's ratio is its loaded median
+//! over its idle median, idle and loaded frames being timed seconds apart,
+//! so that a change in what else the machine runs shifts both. Printed:
+//! the median and range of the ms per frame over all rounds, and the
+//! median and range of the rounds' ratios.
 //!
 //! `cargo bench --bench contention -- 32 64 128` sets the sizes.
 
@@ -29,8 +34,12 @@ use race::{Ours, Runner, race, sizes, summary};
 
 /// Frames before timing starts.
 const WARM_UP: usize = 60;
-/// Frames timed per run.
-const FRAMES: usize = 600;
+/// Rounds of idle then loaded frames.
+const ROUNDS: usize = 6;
+/// Frames timed per run, phase and round.
+const FRAMES: usize = 100;
+/// Rest before each round: longer than a late helper is left alone (4 s).
+const REST: Duration = Duration::from_millis(4500);
 
 /// Two threads that spin while `on` is set and sleep otherwise.
 struct Busy {
@@ -95,20 +104,20 @@ impl Runner for Loaded {
 fn main() {
     let busy = Busy::start(2);
     println!(
-        "| N×N | helper | idle ms (median, range) | two busy threads ms (median, range) | loaded / idle |"
+        "| N×N | helper | idle ms (median, range) | two busy threads ms (median, range) | loaded / idle (median of {ROUNDS} rounds, range) |"
     );
     println!("|---|---|---|---|---|");
     for n in sizes(&[32, 64, 128]) {
-        let mut runs: Vec<Loaded> = [(true, false), (false, false), (true, true), (false, true)]
+        let mut runs: Vec<Loaded> = [true, false]
             .into_iter()
-            .map(|(helper, loaded)| {
+            .map(|helper| {
                 let mut settings = SimSettings::default();
                 settings.sleep.enabled = false;
                 settings.implicit.helper_thread = helper;
                 Loaded {
                     cloth: Ours::with_settings(n, settings),
                     on: busy.on.clone(),
-                    loaded,
+                    loaded: false,
                 }
             })
             .collect();
@@ -117,20 +126,43 @@ fn main() {
                 run.frame();
             }
         }
-        let (idle, loaded) = runs.split_at_mut(2);
-        let mut times = Vec::new();
-        for phase in [idle, loaded] {
-            let mut refs: Vec<&mut dyn Runner> =
-                phase.iter_mut().map(|r| r as &mut dyn Runner).collect();
-            times.extend(race(&mut refs, FRAMES, 20));
+        // Per run: idle and loaded frames, and each round's ratio.
+        let mut idle = vec![Vec::new(); runs.len()];
+        let mut load = vec![Vec::new(); runs.len()];
+        let mut ratios = vec![Vec::new(); runs.len()];
+        for _ in 0..ROUNDS {
+            std::thread::sleep(REST);
+            for run in &mut runs {
+                run.loaded = false;
+                for _ in 0..WARM_UP {
+                    run.frame();
+                }
+            }
+            let mut medians = Vec::new();
+            for loaded in [false, true] {
+                for run in &mut runs {
+                    run.loaded = loaded;
+                }
+                let mut refs: Vec<&mut dyn Runner> =
+                    runs.iter_mut().map(|r| r as &mut dyn Runner).collect();
+                let mut times = race(&mut refs, FRAMES, 20);
+                busy.on.store(false, Ordering::Relaxed);
+                let into = if loaded { &mut load } else { &mut idle };
+                for (k, t) in times.iter_mut().enumerate() {
+                    into[k].extend_from_slice(t);
+                    medians.push(summary(t).0);
+                }
+            }
+            for (k, ratio) in ratios.iter_mut().enumerate() {
+                ratio.push(medians[runs.len() + k] / medians[k]);
+            }
         }
-        busy.on.store(false, Ordering::Relaxed);
-        for (k, helper) in [(0, "on"), (1, "off")] {
-            let (idle, i_lo, i_hi) = summary(&mut times[k]);
-            let (load, l_lo, l_hi) = summary(&mut times[k + 2]);
+        for (k, helper) in ["on", "off"].into_iter().enumerate() {
+            let (i, i_lo, i_hi) = summary(&mut idle[k]);
+            let (l, l_lo, l_hi) = summary(&mut load[k]);
+            let (r, r_lo, r_hi) = summary(&mut ratios[k]);
             println!(
-                "| {n}×{n} | {helper} | {idle:.2} ({i_lo:.2}–{i_hi:.2}) | {load:.2} ({l_lo:.2}–{l_hi:.2}) | {:.2}× |",
-                load / idle
+                "| {n}×{n} | {helper} | {i:.2} ({i_lo:.2}–{i_hi:.2}) | {l:.2} ({l_lo:.2}–{l_hi:.2}) | {r:.2}× ({r_lo:.2}–{r_hi:.2}) |"
             );
         }
     }
