@@ -139,9 +139,10 @@ pub struct ImplicitParams {
     /// at least 4×4 a multigrid V-cycle over squares of 2 × 2 particles,
     /// 4 × 4 and so on, which keeps the iterations of a cloth in motion
     /// about the same from 32×32 to 256×256 (13 to 25 a frame); for mesh
-    /// cloths of at least 64 particles the same V-cycle over groups of
-    /// about 4 linked particles, 4 groups and so on (36 → 11 iterations a
-    /// step on a 3,997-particle disc).
+    /// cloths of at least 64 particles a V-cycle over groups of about 12
+    /// linked particles that move rigidly (a translation and a rotation
+    /// each), 4 groups and so on (35 → 10 iterations a step on a
+    /// 3,997-particle disc).
     /// Smaller cloths solve without it. On by default.
     pub coarse_grid: bool,
     /// Whether a grid cloth of at least 2048 particles shares the passes

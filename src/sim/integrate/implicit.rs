@@ -422,6 +422,9 @@ fn assemble(
     beta: f32,
     buffers: &mut ImplicitBuffers,
 ) {
+    if dynamics.connections.columns == 0 && dynamics.settings.implicit.coarse_grid {
+        buffers.mesh_coarse.place(x);
+    }
     buffers.share = x.len() >= halves::MIN_PARTICLES
         && dynamics.settings.implicit.helper_thread
         && buffers.choice.share();

@@ -43,7 +43,6 @@ use super::operator::{Soa, rank_block, sym_matrix, sym_of};
 use crate::sim::model::jacobian::Block;
 use crate::sim::model::streams::StreamBlocks;
 use factor::Banded;
-pub(super) use level::invert_diagonal;
 use level::{Level, SLOTS};
 
 mod factor;
@@ -66,17 +65,21 @@ const SIDE: usize = 2;
 /// Marks a pinned particle, which belongs to no aggregate.
 const NONE: u32 = u32::MAX;
 
+/// A pair's block `C = t I + s u uᵀ` as `(t, s, u)` (kg; `u` a unit
+/// vector).
+pub(super) type Rank = (f32, f32, [f32; 3]);
+
 /// Visits every pair `(p, q)`, `p < q`, of a step of `n` particles that
 /// the operator takes, for a coarse operator to add: the blocks formed by
 /// stream, then the Jacobian `blocks` as `C = αD + βK`. `visit` gets the
-/// pair and a function that forms its block `C` (xx, yy, zz, xy, xz, yz;
-/// `None` for a zero block), so that the pairs inside one aggregate, most
-/// of them, where they cancel, cost no block.
+/// pair and a function that forms its block `C` ([`Rank`]; `None` for a
+/// zero block), so that the pairs inside one aggregate, most of them,
+/// where they cancel, cost no block.
 pub(super) fn joining_pairs<'a>(
     n: usize,
     (blocks, streamed): (&[Block], impl Iterator<Item = StreamBlocks<'a>>),
     (alpha, beta): (f32, f32),
-    mut visit: impl FnMut(usize, usize, &dyn Fn() -> Option<[f32; 6]>),
+    mut visit: impl FnMut(usize, usize, &dyn Fn() -> Option<Rank>),
 ) {
     for src in streamed {
         // Slots past the last particle hold no link.
@@ -85,15 +88,13 @@ pub(super) fn joining_pairs<'a>(
             let (p, q) = (src.lo + i, src.lo + i + src.delta);
             visit(p, q, &|| {
                 (src.t[i] != 0.0 || src.s[i] != 0.0)
-                    .then(|| sym_of(src.t[i], src.s[i], src.u.map(|u| u[i])))
+                    .then(|| (src.t[i], src.s[i], src.u.map(|u| u[i])))
             });
         }
     }
     for blk in blocks {
         let (p, q) = (blk.a.min(blk.b) as usize, blk.a.max(blk.b) as usize);
-        visit(p, q, &|| {
-            rank_block(blk, alpha, beta).map(|(t, s, u)| sym_of(t, s, u))
-        });
+        visit(p, q, &|| rank_block(blk, alpha, beta));
     }
 }
 
@@ -249,9 +250,9 @@ impl Coarse {
     ) {
         joining_pairs(n, pairs, scales, |p, q, block| {
             if self.joins(p, q)
-                && let Some(c) = block()
+                && let Some((t, s, u)) = block()
             {
-                self.add_pair(p, q, &c);
+                self.add_pair(p, q, &sym_of(t, s, u));
             }
         });
     }

@@ -1,15 +1,24 @@
 //! The coarse correction of the implicit solver's preconditioner for a
 //! cloth that is not a grid (a mesh cloth, [`Connections::columns`] 0).
 //!
-//! The grid's multigrid ([`coarse`](super::coarse)) on aggregates made from
-//! the mesh's connectivity rather than grid squares:
-//! `P⁻¹ r = B⁻¹ r + R₁ V₁(R₁ᵀ r)`, with `R₁` the piecewise-constant
-//! prolongation from aggregates of about [`SIZE`] linked particles and
-//! `V₁` one V-cycle over levels, each the Galerkin operator
-//! `A_{l+1} = R_lᵀ A_l R_l` of the one below on aggregates of about
-//! [`SIZE`] of its nodes: a block-Jacobi sweep, the residual's correction
-//! from the level above scaled by θ, another sweep; down to at most
-//! [`COARSEST`] nodes, solved exactly.
+//! A multigrid on aggregates made from the mesh's connectivity, whose
+//! nodes move rigidly: `P⁻¹ r = B⁻¹ r + R₁ V₁(R₁ᵀ r)`, with `R₁` the
+//! prolongation from the rigid motions (a translation and a rotation about
+//! the aggregate's centre of mass, [`six`]) of aggregates of about
+//! [`FIRST`] linked particles, and `V₁` one V-cycle over levels, each the
+//! Galerkin operator `A_{l+1} = R_lᵀ A_l R_l` of the one below on
+//! aggregates of about [`SIZE`] of its nodes, again moving rigidly: a
+//! block-Jacobi sweep, the residual's correction from the level above
+//! scaled by θ, another sweep; down to at most [`COARSEST`] nodes, solved
+//! exactly.
+//!
+//! Rigid nodes, rather than the grid's piecewise-constant ones
+//! ([`coarse`](super::coarse)), follow what a mesh cloth does that a grid
+//! pinned at its corners rarely does: pieces of it (a torn piece falling
+//! free, a flap) turn about one another, which costs no stretch, and which
+//! aggregates that can only translate follow in steps that do stretch
+//! their links. Six unknowns per node rather than three pay for
+//! themselves with three times as many particles per node.
 //!
 //! - **Aggregates** are grown breadth-first over the Type 1 links, seeds
 //!   taken in a breadth-first order of the whole cloth, a
@@ -18,11 +27,13 @@
 //!   hierarchy is made once per set of links and kept while the links stay
 //!   the same. Pinned particles belong to none, as the filter leaves them
 //!   out of `A`.
-//! - **Each level's operator** is stored as the grid's: a diagonal block
-//!   per node and a block `C` per edge, `A[I][J] = A[J][I] = −C`. A block
-//!   between two aggregates that share no link (a contact between distant
-//!   parts of the cloth) adds `C` to both diagonals only, which keeps the
-//!   operator positive definite.
+//! - **Each level's operator** is a 6×6 diagonal block per node and a
+//!   block `A[I][J]` per edge `I < J`. A pair between two aggregates that
+//!   share no link (a contact between distant parts of the cloth) adds
+//!   to both diagonals only, which keeps the operator positive definite.
+//!   A node's rotations keep at least the inertia of a node 1 mm across,
+//!   so that a node of one particle, or of particles on a line, has an
+//!   invertible block.
 //! - **The coarsest level** is factored by a Cholesky factorisation in f64
 //!   that skips the zeros before each row's first coupling (the
 //!   breadth-first numbering keeps coupled aggregates close in number). A
@@ -31,20 +42,28 @@
 
 use bevy::math::{Mat3A, Vec3, Vec3A};
 
-use super::coarse::joining_pairs;
+use super::coarse::{Rank, joining_pairs};
 use super::operator::{Soa, sym_matrix};
 use crate::sim::connections::{Connections, LinkStamp};
 use crate::sim::model::jacobian::Block;
 use crate::sim::model::streams::StreamBlocks;
+use hierarchy::{hierarchy, key};
 use level::Level;
+use six::{Block6, Six, cross_matrix};
 
+mod hierarchy;
 mod level;
+mod six;
 
-/// Particles (on the first level) or nodes (above) per aggregate, about.
+/// Particles per aggregate of the first level, about: a rigid node (six
+/// unknowns) for twelve particles (36).
+pub const FIRST: usize = 12;
+
+/// Nodes per aggregate of the levels above the first, about.
 pub const SIZE: usize = 4;
 
 /// Nodes of the coarsest level at most, solved exactly.
-pub const COARSEST: usize = 64;
+pub const COARSEST: usize = 32;
 
 /// Weight of a block-Jacobi sweep.
 const OMEGA: f32 = 0.6;
@@ -69,6 +88,14 @@ pub(super) struct MeshCoarse {
     /// This step's first-level aggregate of each particle, [`NONE`] for
     /// pinned ones.
     aggregate: Vec<u32>,
+    /// The positions the operator is linearised at (m).
+    positions: Vec<Vec3A>,
+    /// Each particle's position less its aggregate's centre (m).
+    offset: Vec<Vec3A>,
+    /// Each free particle's own block (kg): its mass and the blocks `C` of
+    /// its pairs that leave its aggregate, moved onto the aggregate's
+    /// diagonal once all are in ([`Self::finish`]).
+    own: Vec<Mat3A>,
     /// The levels, first to coarsest.
     levels: Vec<Level>,
     /// Whether the coarsest level is solved exactly (else a sweep).
@@ -83,11 +110,18 @@ pub(super) struct MeshCoarse {
 }
 
 impl MeshCoarse {
+    /// Sets the positions (m) the next steps' operators are linearised at.
+    pub(super) fn place(&mut self, x: &[Vec3]) {
+        self.positions.clear();
+        self.positions.extend(x.iter().map(|&p| Vec3A::from(p)));
+    }
+
     /// Starts the coarse operator of a step of the cloth with links
     /// `connections` and scaled masses `mass_scale / w` (kg; `w` in 1/kg,
-    /// 0 pins), whose links have generation `generation` if their owner
-    /// keeps one (see [`LinkStamp`]). `false` (no correction) for fewer
-    /// than 64 particles.
+    /// 0 pins) at the positions last [placed](Self::place), whose links
+    /// have generation `generation` if their owner keeps one (see
+    /// [`LinkStamp`]). `false` (no correction) for fewer than 64 particles
+    /// or positions of another cloth.
     pub(super) fn begin(
         &mut self,
         connections: &Connections,
@@ -96,7 +130,7 @@ impl MeshCoarse {
         mass_scale: f32,
     ) -> bool {
         let n = inverse_masses.len();
-        if n < 64 {
+        if n < 64 || self.positions.len() != n {
             return false;
         }
         let stamp = connections.stamp(generation);
@@ -117,12 +151,37 @@ impl MeshCoarse {
         );
         let first = &mut self.levels[0];
         first.reset();
-        for (&a, &w) in self.aggregate.iter().zip(inverse_masses) {
+        for ((&a, &w), &x) in self
+            .aggregate
+            .iter()
+            .zip(inverse_masses)
+            .zip(&self.positions)
+        {
             if a != NONE {
-                first.diag[a as usize] += Mat3A::from_diagonal(Vec3::splat(mass_scale / w));
+                let m = mass_scale / w;
+                first.mass[a as usize] += m;
+                first.centre[a as usize] += m * x;
                 first.filled[a as usize] = true;
             }
         }
+        first.centre_on_mass();
+        self.offset.clear();
+        self.offset
+            .extend(self.aggregate.iter().zip(&self.positions).map(|(&a, &x)| {
+                if a == NONE {
+                    Vec3A::ZERO
+                } else {
+                    x - first.centre[a as usize]
+                }
+            }));
+        self.own.clear();
+        self.own.extend(inverse_masses.iter().map(|&w| {
+            if w == 0.0 {
+                Mat3A::ZERO
+            } else {
+                Mat3A::from_diagonal(Vec3::splat(mass_scale / w))
+            }
+        }));
         true
     }
 
@@ -133,27 +192,54 @@ impl MeshCoarse {
         if let Some(&i) = self.aggregate.get(a)
             && i != NONE
         {
-            self.levels[0].diag[i as usize] += Mat3A::from(sym_matrix(c));
+            self.own[a] += Mat3A::from(sym_matrix(c));
         }
     }
 
-    /// Adds the block `C` of the pair `(a, b)`.
-    fn add_pair(&mut self, a: usize, b: usize, c: &[f32; 6]) {
+    /// Adds the block `C = t I + s u uᵀ` of the pair `(a, b)`: `Qₐᵀ C Qₐ`
+    /// and `Q_bᵀ C Q_b` to their aggregates' diagonals, `−Qₐᵀ C Q_b`
+    /// between them (`Q` a particle's motion under its aggregate's rigid
+    /// motion). With `[d]×` the cross-product matrix of an offset `d`,
+    /// `[a]×[b]× = b aᵀ − (a·b) I` and `[d]× u = d × u` write the products
+    /// out.
+    fn add_pair(&mut self, a: usize, b: usize, (t, s, u): Rank) {
         let (i, j) = (self.aggregate[a], self.aggregate[b]);
-        if i == j {
-            return;
-        }
-        let c = Mat3A::from(sym_matrix(c));
+        let u = Vec3A::from_array(u);
+        let (da, db) = (self.offset[a], self.offset[b]);
+        let outer = |x: Vec3A, y: Vec3A| Mat3A::from_cols(x * y.x, x * y.y, x * y.z);
         let first = &mut self.levels[0];
-        if i == NONE || j == NONE {
-            first.diag[i.min(j) as usize] += c;
+        if i == j {
+            // Both in one aggregate: only its rotations stretch the pair,
+            // by `(xₐ − x_b) × ω`: `−[d]× C [d]×`.
+            if i != NONE {
+                let d = da - db;
+                let w = d.cross(u);
+                first.diag[i as usize].rr +=
+                    Mat3A::from_diagonal(Vec3::splat(t * d.length_squared())) - t * outer(d, d)
+                        + s * outer(w, w);
+            }
             return;
         }
-        first.add_pair(i as usize, j as usize, c);
+        let c = Mat3A::from_diagonal(Vec3::splat(t)) + s * outer(u, u);
+        for (k, p) in [(i, a), (j, b)] {
+            if k != NONE {
+                self.own[p] += c;
+            }
+        }
+        if i != NONE && j != NONE {
+            let (wa, wb) = (da.cross(u), db.cross(u));
+            let block = Block6 {
+                tt: -c,
+                tr: t * cross_matrix(db) - s * outer(u, wb),
+                rt: -t * cross_matrix(da) - s * outer(wa, u),
+                rr: t * (outer(db, da) - Mat3A::from_diagonal(Vec3::splat(da.dot(db))))
+                    - s * outer(wa, wb),
+            };
+            self.levels[0].add_off(i as usize, j as usize, block);
+        }
     }
 
-    /// Adds every pair of a step of `n` particles that joins two
-    /// aggregates ([`joining_pairs`]).
+    /// Adds every pair of a step of `n` particles ([`joining_pairs`]).
     pub(super) fn add_pairs<'a>(
         &mut self,
         n: usize,
@@ -161,10 +247,10 @@ impl MeshCoarse {
         scales: (f32, f32),
     ) {
         joining_pairs(n, pairs, scales, |p, q, block| {
-            if self.aggregate[p] != self.aggregate[q]
+            if (self.aggregate[p] != NONE || self.aggregate[q] != NONE)
                 && let Some(c) = block()
             {
-                self.add_pair(p, q, &c);
+                self.add_pair(p, q, c);
             }
         });
     }
@@ -172,9 +258,26 @@ impl MeshCoarse {
     /// Forms the levels above the first and factors the coarsest; `false`
     /// on an operator that is not positive definite.
     pub(super) fn finish(&mut self) -> bool {
+        let first = &mut self.levels[0];
+        for ((&a, c), &d) in self.aggregate.iter().zip(&self.own).zip(&self.offset) {
+            if a != NONE {
+                // `Qᵀ C Q` of a symmetric `C`, written out.
+                let s = cross_matrix(d);
+                let tr = -(*c * s);
+                let block = &mut first.diag[a as usize];
+                block.tt += *c;
+                block.tr += tr;
+                block.rt += tr.transpose();
+                block.rr -= tr.transpose() * s;
+            }
+        }
         for l in 1..self.levels.len() {
             let (below, above) = self.levels.split_at_mut(l);
             below[l - 1].coarsen(&mut above[0]);
+        }
+        for level in &mut self.levels {
+            level.regularise();
+            level.transpose_off();
         }
         let last = self.levels.len() - 1;
         if !self.levels[..last].iter_mut().all(Level::invert) {
@@ -192,32 +295,42 @@ impl MeshCoarse {
     /// empty node's diagonal the identity.
     fn fill_coarsest(&mut self) {
         let level = &self.levels[self.levels.len() - 1];
-        let size = 3 * level.count();
+        let size = 6 * level.count();
         self.matrix.clear();
         self.matrix.resize(size * size, 0.0);
         self.first.clear();
-        self.first.extend((0..size).map(|row| row - row % 3));
-        let mut put = |(i, j): (usize, usize), m: Mat3A, sign: f64| {
-            for r in 0..3 {
-                for k in 0..3 {
-                    self.matrix[(3 * i + r) * size + 3 * j + k] += sign * m.col(k)[r] as f64;
+        self.first.extend((0..size).map(|row| row - row % 6));
+        let mut put = |(i, j): (usize, usize), b: &Block6| {
+            for (k, m) in [b.tt, b.tr, b.rt, b.rr].iter().enumerate() {
+                let (r0, c0) = (6 * i + 3 * (k / 2), 6 * j + 3 * (k % 2));
+                for c in 0..3 {
+                    for r in 0..3 {
+                        self.matrix[(r0 + r) * size + c0 + c] = m.col(c)[r] as f64;
+                    }
                 }
             }
         };
+        let identity = Block6 {
+            tt: Mat3A::IDENTITY,
+            rr: Mat3A::IDENTITY,
+            ..Block6::ZERO
+        };
         for i in 0..level.count() {
-            let d = if level.filled[i] {
-                level.diag[i]
-            } else {
-                Mat3A::IDENTITY
-            };
-            put((i, i), d, 1.0);
+            put(
+                (i, i),
+                if level.filled[i] {
+                    &level.diag[i]
+                } else {
+                    &identity
+                },
+            );
             for k in level.start[i] as usize..level.start[i + 1] as usize {
                 let j = level.above[k] as usize;
-                put((i, j), level.off[k], -1.0);
-                put((j, i), level.off[k], -1.0);
-                for r in 0..3 {
-                    let row = 3 * j + r;
-                    self.first[row] = self.first[row].min(3 * i);
+                put((i, j), &level.off[k]);
+                put((j, i), &level.off[k].transpose());
+                for r in 0..6 {
+                    let row = 6 * j + r;
+                    self.first[row] = self.first[row].min(6 * i);
                 }
             }
         }
@@ -251,20 +364,30 @@ impl MeshCoarse {
     /// in N·s, zero at pins as the filter leaves it; y in m/s).
     pub(super) fn add(&mut self, r: &Soa, y: &mut Soa, free: &[f32]) {
         let first = &mut self.levels[0];
-        first.r.fill(Vec3A::ZERO);
+        first.r.fill(Six::ZERO);
         let [rx, ry, rz] = r.0.each_ref().map(|c| &c[..self.aggregate.len()]);
-        for (p, &a) in self.aggregate.iter().enumerate() {
+        for (p, (&a, &d)) in self.aggregate.iter().zip(&self.offset).enumerate() {
             if a != NONE {
-                first.r[a as usize] += Vec3A::new(rx[p], ry[p], rz[p]);
+                let f = Six {
+                    t: Vec3A::new(rx[p], ry[p], rz[p]),
+                    r: Vec3A::ZERO,
+                };
+                first.r[a as usize] += f.lifted(d);
             }
         }
         self.cycle_from(0);
         let e = &self.levels[0].e;
         let n = self.aggregate.len();
         let [yx, yy, yz] = y.0.each_mut().map(|c| &mut c[..n]);
-        for (p, (&a, &f)) in self.aggregate.iter().zip(&free[..n]).enumerate() {
+        for (p, ((&a, &f), &d)) in self
+            .aggregate
+            .iter()
+            .zip(&free[..n])
+            .zip(&self.offset)
+            .enumerate()
+        {
             if a != NONE {
-                let c = f * e[a as usize];
+                let c = f * e[a as usize].moved(d).t;
                 yx[p] += c.x;
                 yy[p] += c.y;
                 yz[p] += c.z;
@@ -280,19 +403,19 @@ impl MeshCoarse {
         }
         let (below, above) = self.levels.split_at_mut(l + 1);
         let (level, up) = (&mut below[l], &mut above[0]);
-        level.e.fill(Vec3A::ZERO);
+        level.e.fill(Six::ZERO);
         level.jacobi(false);
         level.residual();
-        up.r.fill(Vec3A::ZERO);
+        up.r.fill(Six::ZERO);
         for (i, &t) in level.t.iter().enumerate() {
-            up.r[level.parent[i] as usize] += t;
+            up.r[level.parent[i] as usize] += t.lifted(level.offset[i]);
         }
         self.cycle_from(l + 1);
         let (below, above) = self.levels.split_at_mut(l + 1);
         let (level, up) = (&mut below[l], &above[0]);
         for (i, e) in level.e.iter_mut().enumerate() {
             if level.filled[i] {
-                *e += THETA * up.e[level.parent[i] as usize];
+                *e += THETA * up.e[level.parent[i] as usize].moved(level.offset[i]);
             }
         }
         level.residual();
@@ -304,14 +427,19 @@ impl MeshCoarse {
     fn solve_coarsest(&mut self) {
         let level = self.levels.last_mut().expect("a level");
         if !self.exact {
-            level.e.fill(Vec3A::ZERO);
+            level.e.fill(Six::ZERO);
             level.jacobi(false);
             return;
         }
         let size = self.first.len();
         let rc = &mut self.rc;
         rc.clear();
-        rc.extend(level.r.iter().flat_map(|r| r.to_array().map(f64::from)));
+        rc.extend(level.r.iter().flat_map(|r| {
+            r.t.to_array()
+                .into_iter()
+                .chain(r.r.to_array())
+                .map(f64::from)
+        }));
         let l = &self.matrix;
         for i in 0..size {
             let row = &l[i * size..];
@@ -327,10 +455,14 @@ impl MeshCoarse {
             }
         }
         for (i, e) in level.e.iter_mut().enumerate() {
+            let at = |k: usize| Vec3A::new(rc[k] as f32, rc[k + 1] as f32, rc[k + 2] as f32);
             *e = if level.filled[i] {
-                Vec3A::new(rc[3 * i] as f32, rc[3 * i + 1] as f32, rc[3 * i + 2] as f32)
+                Six {
+                    t: at(6 * i),
+                    r: at(6 * i + 3),
+                }
             } else {
-                Vec3A::ZERO
+                Six::ZERO
             };
         }
     }
@@ -354,188 +486,6 @@ fn dot(a: &[f64], b: &[f64]) -> f64 {
         }
     }
     (sums[0] + sums[1]) + (sums[2] + sums[3]) + tail
-}
-
-/// The links the hierarchy is made over: the Type 1 links.
-fn links(connections: &Connections) -> impl Iterator<Item = (u32, u32)> + '_ {
-    connections.type1().map(|l| (l.a, l.b))
-}
-
-/// What a hierarchy depends on: the particle count, the link count and a
-/// checksum of their ends.
-fn key(connections: &Connections, n: usize) -> (usize, usize, u64) {
-    let mut sum = 0u64;
-    let mut count = 0;
-    for (a, b) in links(connections) {
-        sum = sum
-            .rotate_left(5)
-            .wrapping_add(((a as u64) << 32) | b as u64);
-        count += 1;
-    }
-    (n, count, sum)
-}
-
-/// The graph of `n` nodes joined by `edges` (ends out of range ignored):
-/// each node's neighbours, sorted, without itself.
-fn graph(n: usize, edges: impl Iterator<Item = (u32, u32)>) -> Vec<Vec<u32>> {
-    let mut out = vec![Vec::new(); n];
-    for (a, b) in edges {
-        if a != b && (a as usize) < n && (b as usize) < n {
-            out[a as usize].push(b);
-            out[b as usize].push(a);
-        }
-    }
-    for row in &mut out {
-        row.sort_unstable();
-        row.dedup();
-    }
-    out
-}
-
-/// The hierarchy of a cloth of `n` particles over the links of
-/// `connections` (module docs): writes each particle's first-level
-/// aggregate into `grouped` and returns the levels, their graphs made and
-/// their operators empty.
-fn hierarchy(connections: &Connections, n: usize, grouped: &mut Vec<u32>) -> Vec<Level> {
-    let particles = graph(n, links(connections));
-    let count = aggregate(&particles, grouped);
-    let mut neighbours = lift(&particles, grouped, count);
-    let mut levels = Vec::new();
-    loop {
-        let mut level = Level::new(&neighbours);
-        let count = level.count();
-        if count <= COARSEST {
-            levels.push(level);
-            return levels;
-        }
-        let up = aggregate(&neighbours, &mut level.parent);
-        if 4 * up > 3 * count {
-            // Scraps that no longer aggregate: this level is the last.
-            level.parent.clear();
-            levels.push(level);
-            return levels;
-        }
-        let above = lift(&neighbours, &level.parent, up);
-        let next = Level::new(&above);
-        level.lift = (0..count)
-            .flat_map(|i| {
-                let (start, end) = (level.start[i] as usize, level.start[i + 1] as usize);
-                let (parent, next) = (&level.parent, &next);
-                level.above[start..end].iter().map(move |&j| {
-                    let (p, q) = (parent[i] as usize, parent[j as usize] as usize);
-                    if p == q {
-                        NONE
-                    } else {
-                        next.edge(p.min(q), p.max(q)).expect("a lifted edge") as u32
-                    }
-                })
-            })
-            .collect();
-        levels.push(level);
-        neighbours = above;
-    }
-}
-
-/// The graph of `count` aggregates (`parent` of each node of `nodes`):
-/// two are neighbours when nodes of theirs are.
-fn lift(nodes: &[Vec<u32>], parent: &[u32], count: usize) -> Vec<Vec<u32>> {
-    let edges = nodes
-        .iter()
-        .enumerate()
-        .flat_map(|(i, row)| row.iter().map(move |&j| (parent[i], parent[j as usize])));
-    graph(count, edges)
-}
-
-/// Groups the nodes of the graph `neighbours` into connected aggregates of
-/// about [`SIZE`] (module docs); writes each node's aggregate into `out`
-/// and returns how many there are.
-fn aggregate(neighbours: &[Vec<u32>], out: &mut Vec<u32>) -> usize {
-    let n = neighbours.len();
-    // Seeds in breadth-first order of the whole graph, each piece of it
-    // from the node its first node's search reaches last (far from the
-    // rest: the levels run across the cloth, not around it, and the
-    // coupled aggregates stay close in number).
-    let mut order = Vec::with_capacity(n);
-    let mut seen = vec![false; n];
-    let breadth_first = |root: usize, seen: &mut Vec<bool>, order: &mut Vec<u32>| {
-        let from = order.len();
-        seen[root] = true;
-        order.push(root as u32);
-        let mut k = from;
-        while k < order.len() {
-            let p = order[k] as usize;
-            k += 1;
-            for &q in &neighbours[p] {
-                if !std::mem::replace(&mut seen[q as usize], true) {
-                    order.push(q);
-                }
-            }
-        }
-        from
-    };
-    for root in 0..n {
-        if seen[root] {
-            continue;
-        }
-        let from = breadth_first(root, &mut seen, &mut order);
-        let far = order[order.len() - 1] as usize;
-        for &p in &order[from..] {
-            seen[p as usize] = false;
-        }
-        order.truncate(from);
-        breadth_first(far, &mut seen, &mut order);
-    }
-    out.clear();
-    out.resize(n, NONE);
-    let mut sizes: Vec<usize> = Vec::new();
-    let mut ball = Vec::with_capacity(SIZE);
-    for &seed in &order {
-        if out[seed as usize] != NONE {
-            continue;
-        }
-        let id = sizes.len() as u32;
-        ball.clear();
-        ball.push(seed);
-        out[seed as usize] = id;
-        let mut k = 0;
-        while k < ball.len() && ball.len() < SIZE {
-            let p = ball[k] as usize;
-            k += 1;
-            for &q in &neighbours[p] {
-                if ball.len() < SIZE && out[q as usize] == NONE {
-                    out[q as usize] = id;
-                    ball.push(q);
-                }
-            }
-        }
-        sizes.push(ball.len());
-    }
-    // A node left alone joins a neighbouring aggregate.
-    let mut into: Vec<u32> = (0..sizes.len() as u32).collect();
-    for p in 0..n {
-        let a = out[p] as usize;
-        if sizes[a] == 1
-            && let Some(&q) = neighbours[p]
-                .iter()
-                .find(|&&q| sizes[out[q as usize] as usize] > 1)
-        {
-            into[a] = out[q as usize];
-        }
-    }
-    // Renumber in order of first appearance.
-    let mut number = vec![NONE; sizes.len()];
-    let mut count = 0;
-    for &p in &order {
-        let a = into[out[p as usize] as usize] as usize;
-        if number[a] == NONE {
-            number[a] = count;
-            count += 1;
-        }
-    }
-    for a in out.iter_mut() {
-        *a = number[into[*a as usize] as usize];
-    }
-    count as usize
 }
 
 #[cfg(test)]

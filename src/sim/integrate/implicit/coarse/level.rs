@@ -184,11 +184,7 @@ impl Level {
 /// Writes into `inverse` the inverses of the `diag` blocks of the filled
 /// nodes (zero at the others); `false` if one is not invertible (a coarse
 /// operator that is not positive definite).
-pub(in super::super) fn invert_diagonal(
-    diag: &[Mat3A],
-    filled: &[bool],
-    inverse: &mut Vec<Mat3A>,
-) -> bool {
+fn invert_diagonal(diag: &[Mat3A], filled: &[bool], inverse: &mut Vec<Mat3A>) -> bool {
     inverse.clear();
     let mut ok = true;
     inverse.extend(diag.iter().zip(filled).map(|(d, &filled)| {
