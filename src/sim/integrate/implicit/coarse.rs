@@ -73,8 +73,9 @@ pub(super) type Rank = (f32, f32, [f32; 3]);
 /// the operator takes, for a coarse operator to add: the blocks formed by
 /// stream, then the Jacobian `blocks` as `C = αD + βK`. `visit` gets the
 /// pair and a function that forms its block `C` ([`Rank`]; `None` for a
-/// zero block), so that the pairs inside one aggregate, most of them,
-/// where they cancel, cost no block.
+/// zero block), so that a pair the coarse operator has no use for (the
+/// grid's pairs inside one aggregate, most of them, where they cancel)
+/// costs no block.
 pub(super) fn joining_pairs<'a>(
     n: usize,
     (blocks, streamed): (&[Block], impl Iterator<Item = StreamBlocks<'a>>),

@@ -92,9 +92,9 @@ pub(super) struct MeshCoarse {
     positions: Vec<Vec3A>,
     /// Each particle's position less its aggregate's centre (m).
     offset: Vec<Vec3A>,
-    /// Each free particle's own block (kg): its mass and the blocks `C` of
-    /// its pairs that leave its aggregate, moved onto the aggregate's
-    /// diagonal once all are in ([`Self::finish`]).
+    /// Each free particle's own block (kg): its mass, its contacts' blocks
+    /// and the blocks `C` of its pairs that leave its aggregate, moved onto
+    /// the aggregate's diagonal once all are in ([`Self::finish`]).
     own: Vec<Mat3A>,
     /// The levels, first to coarsest.
     levels: Vec<Level>,
@@ -186,8 +186,8 @@ impl MeshCoarse {
     }
 
     /// Adds the symmetric block `c` (xx, yy, zz, xy, xz, yz; kg) to
-    /// particle `a`'s diagonal (a contact the solve holds): to its
-    /// aggregate's, unless it is pinned.
+    /// particle `a`'s diagonal (a contact the solve holds): to its own
+    /// block, unless it is pinned.
     pub(super) fn add_diagonal(&mut self, a: usize, c: &[f32; 6]) {
         if let Some(&i) = self.aggregate.get(a)
             && i != NONE
