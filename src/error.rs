@@ -88,7 +88,7 @@ pub enum ClothError {
     /// iteration, a finite, non-negative Newton strain and a positive strain
     /// limit (infinite turns it off).
     #[error(
-        "the implicit solver needs a tolerance in (0, 1), at least one iteration, a finite, non-negative newton_strain and a strain_limit > 0"
+        "the implicit solver needs a tolerance in (0, 1), at least one iteration, at most 8 past solutions, a finite, non-negative newton_strain and a strain_limit > 0"
     )]
     InvalidSolver,
     /// A crease is invalid (non-finite, ratio outside (0, 1], angle outside

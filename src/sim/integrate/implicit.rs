@@ -105,6 +105,8 @@ pub struct ImplicitBuffers {
     /// Threads the last solve's iterations ran on: 2 when it shared them
     /// with the helper thread ([`ImplicitParams::helper_thread`]).
     pub last_threads: u32,
+    /// The last steps' solutions, for the next solve's starting guess.
+    past: past::Past,
     /// Whether sharing them pays, by the last solves' times.
     choice: halves::Choice,
     /// Whether this step's solve is to share them, as `choice` had it.
@@ -116,6 +118,7 @@ impl ImplicitBuffers {
         if self.force.len() != n {
             self.history = None;
             self.warm = false;
+            self.past.clear();
         }
         for buf in [
             &mut self.rhs,
@@ -179,6 +182,7 @@ impl ImplicitBuffers {
     pub fn reset_history(&mut self) {
         self.history = None;
         self.warm = false;
+        self.past.clear();
         self.contacts.clear();
     }
 
@@ -199,7 +203,9 @@ pub fn k_times(blocks: &[Block], w: &[Vec3], out: &mut [Vec3]) {
 /// Solves `A Δv = b` (b already filtered) into `buffers.dv` by PCG with the
 /// preconditioner `P⁻¹ = B⁻¹ (+ the coarse correction)`. It starts from the
 /// last step's `Δv` when there is one and it is closer than `Δv = 0` (a
-/// warm start), and stops once `rᵀP⁻¹r ≤ ε² bᵀP⁻¹b` either way.
+/// warm start), after hard solves from the best combination of the last
+/// steps' solutions ([`past`], [`ImplicitParams::past_solutions`]), and
+/// stops once `rᵀP⁻¹r ≤ ε² bᵀP⁻¹b` either way.
 /// Returns (iterations, relative residual).
 fn pcg(params: &ImplicitParams, buffers: &mut ImplicitBuffers) -> (u32, f32) {
     // Compiled for the CPU's vectors, so that its vector updates, the
@@ -231,6 +237,8 @@ fn pcg_inner(params: &ImplicitParams, buffers: &mut ImplicitBuffers) -> (u32, f3
         last_threads: threads,
         choice,
         share,
+        past,
+        contacts,
         ..
     } = buffers;
     *threads = 1;
@@ -246,6 +254,13 @@ fn pcg_inner(params: &ImplicitParams, buffers: &mut ImplicitBuffers) -> (u32, f3
     let tried_warm = *warm;
     let mut delta = f64::NAN;
     if tried_warm {
+        // After hard solves: the best combination of the last ones'
+        // solutions rather than the last alone. Not while the solve holds
+        // contacts: their stiff springs come and go from one step to the
+        // next, and the last steps' motion does not foretell them.
+        if past.wanted() && contacts.list.is_empty() && !contacts.any() {
+            past.guess(op, rhs, dv, q);
+        }
         dv.filter(&op.free);
         op.apply(dv, q);
         for ((r, b), q) in r.0.iter_mut().zip(&rhs.0).zip(&q.0) {
@@ -575,7 +590,12 @@ fn build_held(dynamics: &Dynamics, (alpha, beta): (f32, f32), buffers: &mut Impl
 }
 
 fn solve(dynamics: &Dynamics, buffers: &mut ImplicitBuffers) {
-    let (iterations, residual) = pcg(&dynamics.settings.implicit, buffers);
+    let params = &dynamics.settings.implicit;
+    let (iterations, residual) = pcg(params, buffers);
+    let keep = params.past_solutions as usize;
+    buffers
+        .past
+        .remember(&buffers.dv, keep, (iterations, params.max_iterations));
     buffers.last_iterations = iterations;
     buffers.last_residual = residual;
 }
@@ -866,4 +886,5 @@ pub mod contacts;
 mod halves;
 mod mesh_coarse;
 mod operator;
+mod past;
 mod separate;

@@ -544,3 +544,57 @@ fn a_solve_stopped_at_its_tolerance_leaves_no_net_force() {
         "net residual {net} N·s against {size} N·s in all"
     );
 }
+
+#[test]
+fn the_past_solutions_guess_is_the_solution_when_they_span_it() {
+    let (cloth, v, _) = deformed(16);
+    let settings = SimSettings::default();
+    let (_, mut buffers) = linearised(&settings, &cloth, &v, 1.0 / 60.0);
+    let n = v.len();
+    let op = &mut buffers.op;
+    let mut w1 = soa(n, |i| 0.05 * wiggle(i));
+    let mut w2 = soa(n, |i| Vec3::new(0.0, -0.16, 0.01 * (i % 7) as f32));
+    w1.filter(&op.free);
+    w2.filter(&op.free);
+    // b = A x with x = 0.5 w1 − 3 w2: the guess from {w1, w2, w1} is x.
+    let x = soa(n, |i| 0.5 * w1.get(i) - 3.0 * w2.get(i));
+    let (mut b, mut dv, mut q) = (soa(n, |_| Vec3::ZERO), soa(n, wiggle), soa(n, wiggle));
+    op.apply(&x, &mut b);
+    let mut past = past::Past::default();
+    for w in [&w1, &w2, &w1] {
+        past.remember(w, 4, (100, 100));
+    }
+    assert!(past.wanted());
+    assert!(past.guess(op, &b, &mut dv, &mut q));
+    let size = (0..n).map(|i| x.get(i).length()).fold(0.0, f32::max);
+    for i in 0..n {
+        let error = (dv.get(i) - x.get(i)).length();
+        assert!(error <= 1e-4 * size, "particle {i}: {error} m/s off");
+    }
+    // It is wanted from a solve of half the cap until one of less than a
+    // quarter; none when nothing is kept.
+    for (iterations, wanted) in [
+        (24, false),
+        (49, false),
+        (50, true),
+        (25, true),
+        (24, false),
+    ] {
+        past.remember(&w1, 4, (iterations, 100));
+        assert_eq!(past.wanted(), wanted, "after {iterations} of 100");
+    }
+    // A solution of a step that blew up is left out, not spread.
+    let mut past = past::Past::default();
+    let broken = soa(n, |i| if i == 7 { Vec3::NAN } else { wiggle(i) });
+    for w in [&broken, &w1, &w2] {
+        past.remember(w, 4, (100, 100));
+    }
+    assert!(past.guess(op, &b, &mut dv, &mut q));
+    for i in 0..n {
+        let error = (dv.get(i) - x.get(i)).length();
+        assert!(error <= 1e-4 * size, "particle {i}: {error} m/s off");
+    }
+    past.remember(&w1, 0, (100, 100));
+    assert!(!past.wanted());
+    assert!(!past.guess(op, &b, &mut dv, &mut q));
+}

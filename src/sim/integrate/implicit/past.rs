@@ -1,0 +1,196 @@
+//! The solve's starting guess from the last steps' solutions.
+//!
+//! A cloth in motion repeats much of its last steps' motion: it keeps
+//! falling, keeps swinging, and a fold that flaps from one step to the
+//! next flaps back. The velocity changes `Δv` (m/s) of the last few steps
+//! span much of this step's, so the solve starts from the combination of
+//! them closest to its solution in the energy norm of `A`:
+//! `Δv₀ = W c` with `(WᵀAW) c = Wᵀb`, the columns of `W` the kept
+//! solutions (a Galerkin projection, as in Fischer's projection method
+//! for successive right-hand sides). Among the combinations it is the one
+//! with the least error `(Δv − Δv₀)ᵀA(Δv − Δv₀)`, so it is never worse in
+//! that norm than starting from zero or from the last solution alone.
+//! It costs one product with `A` per kept solution.
+
+use super::operator::{Operator, Soa, dot};
+use crate::sim::settings::MAX_PAST_SOLUTIONS;
+
+/// Most solutions kept.
+const MOST: usize = MAX_PAST_SOLUTIONS as usize;
+
+/// A kept solution whose part outside the span of those before it has
+/// less than this share of its energy (dimensionless) adds nothing the
+/// others do not: it is left out of the combination, which keeps the
+/// small system well conditioned.
+const INDEPENDENT: f64 = 1e-6;
+
+/// The last steps' solutions `Δv` (m/s), the newest overwriting the oldest.
+#[derive(Clone, Debug, Default)]
+pub(super) struct Past {
+    /// Room for the solutions, all made at the first one so that later
+    /// steps allocate nothing; the first `filled` hold solutions.
+    slots: Vec<Soa>,
+    filled: usize,
+    /// Where the next one goes once every slot is filled.
+    next: usize,
+    /// Whether the solves are hard enough for the guess to pay
+    /// ([`remember`](Self::remember)).
+    hard: bool,
+}
+
+impl Past {
+    /// Forgets every solution (a new particle count, a reset).
+    pub fn clear(&mut self) {
+        self.filled = 0;
+        self.next = 0;
+        self.hard = false;
+    }
+
+    /// Whether the next solve is to start from the guess: the solves are
+    /// hard and a solution is kept.
+    pub fn wanted(&self) -> bool {
+        self.hard && self.filled > 0
+    }
+
+    /// Keeps `dv`, the solution of a solve that took `iterations` of at
+    /// most `cap`, among the last `keep` solutions (at most
+    /// [`MAX_PAST_SOLUTIONS`]); a different `keep` than before starts
+    /// over.
+    ///
+    /// The guess costs a product with `A` per kept solution: next to a
+    /// short solve, about as much as it saves. So it is made only once a
+    /// solve has taken half the cap, and until one takes less than a
+    /// quarter of it.
+    pub fn remember(&mut self, dv: &Soa, keep: usize, (iterations, cap): (u32, u32)) {
+        let keep = keep.min(MOST);
+        if self.slots.len() != keep {
+            self.clear();
+            self.slots.resize_with(keep, Soa::default);
+        }
+        let n = dv.0[0].len();
+        if self.filled > 0 && self.slots[0].0[0].len() != n {
+            self.clear();
+        }
+        if iterations >= cap.div_ceil(2) {
+            self.hard = true;
+        } else if iterations < cap / 4 {
+            self.hard = false;
+        }
+        if keep == 0 {
+            return;
+        }
+        if self.filled == 0 {
+            for slot in &mut self.slots {
+                slot.resize(n);
+            }
+        }
+        self.slots[self.next].copy_from(dv);
+        self.filled = (self.filled + 1).min(keep);
+        self.next = (self.next + 1) % keep;
+    }
+
+    /// Writes into `dv` the combination of the kept solutions closest to
+    /// the solution of `A Δv = b` in `A`'s energy norm (`q` scratch), each
+    /// first filtered by the step's free particles. False, with `dv`
+    /// untouched, when none is kept, their length is not `b`'s, or none
+    /// adds anything.
+    pub fn guess(&mut self, op: &mut Operator, b: &Soa, dv: &mut Soa, q: &mut Soa) -> bool {
+        let k = self.filled;
+        let n = b.0[0].len();
+        let solutions = &mut self.slots[..k];
+        if k == 0 || solutions.iter().any(|w| w.0[0].len() != n) {
+            return false;
+        }
+        // The Gram matrix WᵀAW and Wᵀb, in f64.
+        let mut g = [[0.0_f64; MOST]; MOST];
+        let mut wb = [0.0_f64; MOST];
+        for w in solutions.iter_mut() {
+            w.filter(&op.free);
+        }
+        for j in 0..k {
+            op.apply(&solutions[j], q);
+            for (i, w) in solutions.iter().enumerate() {
+                g[i][j] = dot(w, q);
+            }
+            wb[j] = dot(&solutions[j], b);
+        }
+        let Some(c) = solve_gram(&g, &wb, k) else {
+            return false;
+        };
+        dv.zero();
+        for (w, &c) in solutions.iter().zip(&c) {
+            let c = c as f32;
+            if c == 0.0 {
+                continue;
+            }
+            for (x, w) in dv.0.iter_mut().zip(&w.0) {
+                for (x, &w) in x.iter_mut().zip(w.iter()) {
+                    *x += c * w;
+                }
+            }
+        }
+        true
+    }
+}
+
+/// Solves `G c = b` for the first `k` rows and columns of the symmetric
+/// `G` by Cholesky, leaving out (with `c = 0`) each column that is nearly
+/// a combination of those before it ([`INDEPENDENT`]). `None` if none is
+/// left or the result is not finite.
+fn solve_gram(g: &[[f64; MOST]; MOST], b: &[f64; MOST], k: usize) -> Option<[f64; MOST]> {
+    let sym = |i: usize, j: usize| 0.5 * (g[i][j] + g[j][i]);
+    let mut l = [[0.0_f64; MOST]; MOST];
+    let mut kept = [false; MOST];
+    for j in 0..k {
+        let diagonal = sym(j, j);
+        let pivot = diagonal - (0..j).map(|m| l[j][m] * l[j][m]).sum::<f64>();
+        if !(diagonal > 0.0 && pivot > INDEPENDENT * diagonal && pivot.is_finite()) {
+            continue;
+        }
+        kept[j] = true;
+        l[j][j] = pivot.sqrt();
+        for i in j + 1..k {
+            let s = sym(i, j) - (0..j).map(|m| l[i][m] * l[j][m]).sum::<f64>();
+            l[i][j] = s / l[j][j];
+        }
+    }
+    if !kept.iter().any(|&k| k) {
+        return None;
+    }
+    // L y = b, then Lᵀ c = y, over the kept columns (a left-out column's
+    // entries of L are zero, and its y and c stay zero).
+    let mut y = [0.0_f64; MOST];
+    for i in (0..k).filter(|&i| kept[i]) {
+        y[i] = (b[i] - (0..i).map(|m| l[i][m] * y[m]).sum::<f64>()) / l[i][i];
+    }
+    let mut c = [0.0_f64; MOST];
+    for i in (0..k).rev().filter(|&i| kept[i]) {
+        c[i] = (y[i] - (i + 1..k).map(|m| l[m][i] * c[m]).sum::<f64>()) / l[i][i];
+    }
+    c.iter().all(|c| c.is_finite()).then_some(c)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_gram_solve_leaves_out_dependent_columns() {
+        // Columns 0 and 2 equal: the second is left out, and c solves the rest.
+        let mut g = [[0.0; MOST]; MOST];
+        let rows = [[4.0, 1.0, 4.0], [1.0, 3.0, 1.0], [4.0, 1.0, 4.0]];
+        for (i, row) in rows.iter().enumerate() {
+            g[i][..3].copy_from_slice(row);
+        }
+        let mut b = [0.0; MOST];
+        b[..3].copy_from_slice(&[6.0, 7.0, 6.0]);
+        let c = solve_gram(&g, &b, 3).unwrap();
+        assert!(
+            (c[0] - 1.0).abs() < 1e-12 && (c[1] - 2.0).abs() < 1e-12,
+            "{c:?}"
+        );
+        assert_eq!(c[2], 0.0);
+        // Nothing independent: no guess.
+        assert!(solve_gram(&[[0.0; MOST]; MOST], &b, 2).is_none());
+    }
+}
