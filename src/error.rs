@@ -85,8 +85,8 @@ pub enum ClothError {
     #[error("invalid collider: {0}")]
     InvalidCollider(&'static str),
     /// The implicit solve needs a tolerance in (0, 1), at least one
-    /// iteration, a finite, non-negative Newton strain and a positive strain
-    /// limit (infinite turns it off).
+    /// iteration, at most 8 past solutions, a finite, non-negative Newton
+    /// strain and a positive strain limit (infinite turns it off).
     #[error(
         "the implicit solver needs a tolerance in (0, 1), at least one iteration, at most 8 past solutions, a finite, non-negative newton_strain and a strain_limit > 0"
     )]
