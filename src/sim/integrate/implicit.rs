@@ -253,13 +253,14 @@ fn pcg_inner(params: &ImplicitParams, buffers: &mut ImplicitBuffers) -> (u32, f3
     }
     let tried_warm = *warm;
     let mut delta = f64::NAN;
+    let mut projected = false;
     if tried_warm {
         // After hard solves: the best combination of the last ones'
         // solutions rather than the last alone. Not while the solve holds
         // contacts: their stiff springs come and go from one step to the
         // next, and the last steps' motion does not foretell them.
         if past.wanted() && contacts.list.is_empty() && !contacts.any() {
-            past.guess(op, rhs, dv, q);
+            projected = past.guess(op, rhs, dv);
         }
         dv.filter(&op.free);
         op.apply(dv, q);
@@ -279,6 +280,7 @@ fn pcg_inner(params: &ImplicitParams, buffers: &mut ImplicitBuffers) -> (u32, f3
             precondition(op, coarse.as_deref_mut(), mesh.as_deref_mut(), r, y);
         }
         delta = delta0;
+        projected = false;
     }
     *warm = true;
     // Stop at the relative tolerance, or once the mass-weighted RMS error
@@ -304,6 +306,14 @@ fn pcg_inner(params: &ImplicitParams, buffers: &mut ImplicitBuffers) -> (u32, f3
         return (iterations, (delta / delta0).max(0.0).sqrt() as f32);
     }
     let dot = |a: &Soa, b: &Soa| halves.map_or_else(|| dot(a, b), |h| h.dot(a, b));
+    // From the past solutions' guess, the directions leave out what it
+    // solved ([`past::Past::deflate`]); the stopping rule still measures
+    // `rᵀP⁻¹r`. Not for a solve that may be split, whose result is to be
+    // the same on one thread or two.
+    let deflate = projected && halves.is_none();
+    if deflate {
+        past.deflate(y);
+    }
     d.copy_from(y);
     let mut iterations = 0;
     while iterations < params.max_iterations && delta > tol2 * delta0 {
@@ -325,6 +335,9 @@ fn pcg_inner(params: &ImplicitParams, buffers: &mut ImplicitBuffers) -> (u32, f3
         }
         precondition(op, coarse.as_deref_mut(), mesh.as_deref_mut(), r, y);
         let next = dot(r, y);
+        if deflate {
+            past.deflate(y);
+        }
         let beta = (next / delta) as f32;
         for (d, y) in d.0.iter_mut().zip(&y.0) {
             for (di, &yi) in d.iter_mut().zip(y) {

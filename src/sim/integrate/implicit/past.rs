@@ -24,12 +24,17 @@ const MOST: usize = MAX_PAST_SOLUTIONS as usize;
 /// small system well conditioned.
 const INDEPENDENT: f64 = 1e-6;
 
-/// The last steps' solutions `Δv` (m/s), the newest overwriting the oldest.
+/// The last steps' solutions `Δv` (m/s), the newest overwriting the oldest,
+/// and what the last guess made of them.
 #[derive(Clone, Debug, Default)]
 pub(super) struct Past {
     /// Room for the solutions, all made at the first one so that later
     /// steps allocate nothing; the first `filled` hold solutions.
     slots: Vec<Soa>,
+    /// Their products with the last guess's `A` (N·s), as many slots.
+    images: Vec<Soa>,
+    /// `WᵀAW` of the last guess (kg·m²/s²).
+    gram: [[f64; MOST]; MOST],
     filled: usize,
     /// Where the next one goes once every slot is filled.
     next: usize,
@@ -66,6 +71,7 @@ impl Past {
         if self.slots.len() != keep {
             self.clear();
             self.slots.resize_with(keep, Soa::default);
+            self.images.resize_with(keep, Soa::default);
         }
         let n = dv.0[0].len();
         if self.filled > 0 && self.slots[0].0[0].len() != n {
@@ -80,7 +86,7 @@ impl Past {
             return;
         }
         if self.filled == 0 {
-            for slot in &mut self.slots {
+            for slot in self.slots.iter_mut().chain(&mut self.images) {
                 slot.resize(n);
             }
         }
@@ -90,46 +96,68 @@ impl Past {
     }
 
     /// Writes into `dv` the combination of the kept solutions closest to
-    /// the solution of `A Δv = b` in `A`'s energy norm (`q` scratch), each
-    /// first filtered by the step's free particles. False, with `dv`
-    /// untouched, when none is kept, their length is not `b`'s, or none
-    /// adds anything.
-    pub fn guess(&mut self, op: &mut Operator, b: &Soa, dv: &mut Soa, q: &mut Soa) -> bool {
+    /// the solution of `A Δv = b` in `A`'s energy norm, each first filtered
+    /// by the step's free particles; keeps their products with `A` for
+    /// [`deflate`](Self::deflate). False, with `dv` untouched, when none is
+    /// kept, their length is not `b`'s, or none adds anything.
+    pub fn guess(&mut self, op: &mut Operator, b: &Soa, dv: &mut Soa) -> bool {
         let k = self.filled;
         let n = b.0[0].len();
-        let solutions = &mut self.slots[..k];
+        let (solutions, images) = (&mut self.slots[..k], &mut self.images[..k]);
         if k == 0 || solutions.iter().any(|w| w.0[0].len() != n) {
             return false;
         }
         // The Gram matrix WᵀAW and Wᵀb, in f64.
-        let mut g = [[0.0_f64; MOST]; MOST];
         let mut wb = [0.0_f64; MOST];
         for w in solutions.iter_mut() {
             w.filter(&op.free);
         }
         for j in 0..k {
-            op.apply(&solutions[j], q);
+            op.apply(&solutions[j], &mut images[j]);
             for (i, w) in solutions.iter().enumerate() {
-                g[i][j] = dot(w, q);
+                self.gram[i][j] = dot(w, &images[j]);
             }
             wb[j] = dot(&solutions[j], b);
         }
-        let Some(c) = solve_gram(&g, &wb, k) else {
+        let Some(c) = solve_gram(&self.gram, &wb, k) else {
             return false;
         };
         dv.zero();
-        for (w, &c) in solutions.iter().zip(&c) {
-            let c = c as f32;
-            if c == 0.0 {
-                continue;
-            }
-            for (x, w) in dv.0.iter_mut().zip(&w.0) {
-                for (x, &w) in x.iter_mut().zip(w.iter()) {
-                    *x += c * w;
-                }
+        add_combination(dv, solutions, &c, 1.0);
+        true
+    }
+
+    /// Takes from `y` (m/s) its part along the kept solutions `W` in
+    /// `A`'s energy norm, `y −= W (WᵀAW)⁻¹ (AW)ᵀ y`, with the `A` and
+    /// solutions of the last [`guess`](Self::guess): a conjugate gradient
+    /// that starts from that guess and takes its directions so deflated
+    /// never searches again along what the guess already solved (Saad,
+    /// Yeung, Erhel and Guyomarc'h's deflated conjugate gradient). `k` dot
+    /// products and `k` updates.
+    pub fn deflate(&self, y: &mut Soa) {
+        let k = self.filled;
+        let mut ay = [0.0_f64; MOST];
+        for (ay, image) in ay.iter_mut().zip(&self.images[..k]) {
+            *ay = dot(image, y);
+        }
+        if let Some(mu) = solve_gram(&self.gram, &ay, k) {
+            add_combination(y, &self.slots[..k], &mu, -1.0);
+        }
+    }
+}
+
+/// `out += sign · Σ c_j w_j`.
+fn add_combination(out: &mut Soa, w: &[Soa], c: &[f64; MOST], sign: f32) {
+    for (w, &c) in w.iter().zip(c) {
+        let c = sign * c as f32;
+        if c == 0.0 {
+            continue;
+        }
+        for (x, w) in out.0.iter_mut().zip(&w.0) {
+            for (x, &w) in x.iter_mut().zip(w.iter()) {
+                *x += c * w;
             }
         }
-        true
     }
 }
 
