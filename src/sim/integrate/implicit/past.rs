@@ -10,7 +10,10 @@
 //! for successive right-hand sides). Among the combinations it is the one
 //! with the least error `(Δv − Δv₀)ᵀA(Δv − Δv₀)`, so it is never worse in
 //! that norm than starting from zero or from the last solution alone.
-//! It costs one product with `A` per kept solution.
+//! It costs one product with `A` per kept solution. A conjugate gradient
+//! from that guess may then also keep its directions `A`-orthogonal to the
+//! kept solutions ([`Past::deflate`]), so that it never searches again
+//! along what the guess solved.
 
 use super::operator::{Operator, Soa, dot};
 use crate::sim::settings::MAX_PAST_SOLUTIONS;
