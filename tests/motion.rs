@@ -1,7 +1,8 @@
 //! A cloth in motion at any resolution, with every default: the scene of
 //! `cargo bench --bench motion` (a 1 m cotton sheet let go horizontal,
-//! pinned at two corners, falling and swinging for 3 s), asserting what
-//! is deterministic — iteration counts and strain — rather than times.
+//! pinned at two corners, falling and swinging for 3 s), the pieces of a
+//! cut banner, and cloths hung from their centre; asserting what is
+//! deterministic — iteration counts and strain — rather than times.
 
 mod common;
 
