@@ -39,6 +39,12 @@ fn cap(app: &App) -> u32 {
         .max_iterations
 }
 
+/// The mean of `iterations` and how many of them reached `cap`.
+fn mean_and_capped(iterations: &[u32], cap: u32) -> (f32, usize) {
+    let mean = iterations.iter().sum::<u32>() as f32 / iterations.len() as f32;
+    (mean, iterations.iter().filter(|&&k| k >= cap).count())
+}
+
 /// Runs `frames` frames of the cloth `e`: its solve's iterations in each,
 /// and the largest Type 1 strain (dimensionless) seen after any.
 fn run(app: &mut App, e: Entity, frames: usize) -> (Vec<u32>, f32) {
@@ -128,8 +134,7 @@ fn the_pieces_of_a_cut_banner_fall_with_their_solves_off_the_cap() {
     assert_eq!(pieces.iter().max().map(|&m| m + 1), Some(20));
     let cap = cap(&app);
     let (iterations, _) = run(&mut app, e, 60);
-    let mean = iterations.iter().sum::<u32>() as f32 / 60.0;
-    let capped = iterations.iter().filter(|&&k| k >= cap).count();
+    let (mean, capped) = mean_and_capped(&iterations, cap);
     eprintln!(
         "cut banner's pieces: {mean:.1} iterations a frame, most {}, {capped} of 60 at the cap",
         iterations.iter().max().unwrap()
@@ -174,8 +179,7 @@ fn a_cloth_hung_from_its_centre_keeps_most_solves_off_the_cap() {
         [("disc", disc, 60.0, 2), ("64×64 sheet", sheet, 60.0, 4)]
     {
         let (iterations, cap) = hung(cloth);
-        let mean = iterations.iter().sum::<u32>() as f32 / iterations.len() as f32;
-        let capped = iterations.iter().filter(|&&k| k >= cap).count();
+        let (mean, capped) = mean_and_capped(&iterations, cap);
         eprintln!("{name}: {mean:.1} iterations a frame, {capped} of 90 at the cap");
         assert!(
             mean <= most_mean,

@@ -259,7 +259,7 @@ fn pcg_inner(params: &ImplicitParams, buffers: &mut ImplicitBuffers) -> (u32, f3
         // solutions rather than the last alone. Not while the solve holds
         // contacts: their stiff springs come and go from one step to the
         // next, and the last steps' motion does not foretell them.
-        if past.wanted() && contacts.list.is_empty() && !contacts.any() {
+        if past.wanted() && contacts.none() {
             projected = past.guess(op, rhs, dv);
         }
         dv.filter(&op.free);
@@ -643,7 +643,7 @@ fn backward_euler_step(
     h: f32,
     buffers: &mut ImplicitBuffers,
 ) {
-    let held = if buffers.contacts.list.is_empty() && !buffers.contacts.any() {
+    let held = if buffers.contacts.none() {
         linearise(dynamics, (x, v, v), h, h * h, buffers);
         false
     } else {
@@ -767,7 +767,7 @@ pub fn bdf2(
         };
     }
     let w_term = std::mem::take(&mut buffers.w_term);
-    let held = if buffers.contacts.list.is_empty() && !buffers.contacts.any() {
+    let held = if buffers.contacts.none() {
         linearise(dynamics, (x, v, &w_term), alpha, beta, buffers);
         false
     } else {

@@ -329,6 +329,12 @@ impl ContactBuffers {
         self.any
     }
 
+    /// Whether this step has no contact to hold and the last held none: its
+    /// solve is the cloth's alone.
+    pub fn none(&self) -> bool {
+        self.list.is_empty() && !self.any
+    }
+
     /// Every particle's hold in the last step (empty when none was held).
     pub fn holds(&self) -> &[Hold] {
         if self.any { &self.hold } else { &[] }
