@@ -157,10 +157,11 @@ fn hung(cloth: ClothBundle) -> (Vec<u32>, u32) {
 /// A cloth hung from its centre falls into folds that flap from one step to
 /// the next, the hardest solves a cloth asks for: a 3,997-particle mesh
 /// disc and a 64×64 sheet, let go horizontal. Starting each solve from the
-/// best combination of the last four steps' solutions, and for the disc
-/// (whose solve is not split between threads) searching only across them,
-/// keeps their solves off the cap but for a frame or none (without either:
-/// 91 and 75 iterations a frame, 71 and 22 of 90 frames at the cap).
+/// best combination of the last four steps' solutions, and searching only
+/// across them (on both threads when the sheet's solve is split), keeps
+/// their solves off the cap but for a frame or none (without either: 91
+/// and 75 iterations a frame, 71 and 22 of 90 frames at the cap; without
+/// the search on the sheet's two threads, 51 a frame).
 #[test]
 fn a_cloth_hung_from_its_centre_keeps_most_solves_off_the_cap() {
     use bevy_cloth::plugin::mesh_cloth::disc_mesh;
@@ -176,7 +177,7 @@ fn a_cloth_hung_from_its_centre_keeps_most_solves_off_the_cap() {
         .build()
         .unwrap();
     for (name, cloth, most_mean, most_capped) in
-        [("disc", disc, 60.0, 2), ("64×64 sheet", sheet, 60.0, 4)]
+        [("disc", disc, 60.0, 2), ("64×64 sheet", sheet, 45.0, 2)]
     {
         let (iterations, cap) = hung(cloth);
         let (mean, capped) = mean_and_capped(&iterations, cap);

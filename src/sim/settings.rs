@@ -140,8 +140,7 @@ pub struct ImplicitParams {
     /// Galerkin projection). A cloth in motion repeats much of its last
     /// steps' motion (its fall, its swing, a fold flapping back and forth
     /// from one step to the next), so the solve starts most of the way
-    /// there, and a solve not split between threads then searches only
-    /// across them. It costs one product with the step's matrix per kept
+    /// there, and then searches only across them. It costs one product with the step's matrix per kept
     /// solution, so it is used once a solve has taken half of
     /// [`max_iterations`](Self::max_iterations) and until one takes less
     /// than a quarter: a cloth whose solves stay short (at rest, swinging

@@ -79,6 +79,11 @@ const LATE_WAIT: Duration = Duration::from_micros(200);
 const BACKOFF: Duration = Duration::from_millis(250);
 const MAX_BACKOFF: Duration = Duration::from_secs(4);
 
+/// Partial sums [`Team::sums`] can pass at once, per thread: the solve's
+/// `rᵀy` with the deflation's products, one per kept past solution (at
+/// most 8).
+pub(crate) const SUM_SLOTS: usize = 10;
+
 /// A value on its own cache line, so that the two threads' counters do not
 /// bounce one line between the cores.
 #[repr(align(128))]
@@ -97,8 +102,8 @@ unsafe impl Send for Job {}
 pub(crate) struct Team {
     /// Barriers passed, per thread.
     passed: [Line<AtomicU32>; 2],
-    /// Partial sums (f64 bits), two slots per thread.
-    partial: [Line<[AtomicU64; 2]>; 2],
+    /// Partial sums (f64 bits), [`SUM_SLOTS`] per thread.
+    partial: [Line<[AtomicU64; SUM_SLOTS]>; 2],
     /// A half panicked: the other stops at its next barrier.
     poisoned: AtomicBool,
     /// How long the calling thread has waited for the helper in this run,
@@ -149,17 +154,32 @@ impl Team {
         self.waited.fetch_add(ns, Ordering::Relaxed);
     }
 
-    /// The sum of both threads' `value` in `slot` (0 or 1): each passes a
-    /// barrier between writing its own and reading the other's. The two
-    /// threads add the same two numbers in the same order, so they agree
-    /// on the result to the bit. A slot is written again only after the
-    /// other thread has passed a later barrier, so after it read it.
+    /// The sum of both threads' `value` in `slot`: each passes a barrier
+    /// between writing its own and reading the other's. The two threads
+    /// add the same two numbers in the same order (the calling thread's
+    /// first), so they agree on the result to the bit. A slot is written
+    /// again only after the other thread has passed a later barrier, so
+    /// after it read it.
     pub(crate) fn sum(&self, part: usize, slot: usize, value: f64) -> f64 {
-        self.partial[part].0[slot].store(value.to_bits(), Ordering::Relaxed);
+        let mut values = [value];
+        self.sums(part, slot, &mut values);
+        values[0]
+    }
+
+    /// [`sum`](Self::sum) of several values at one barrier, in the slots
+    /// from `first` on (at most [`SUM_SLOTS`] in all): each value is
+    /// replaced by its sum over both threads.
+    pub(crate) fn sums(&self, part: usize, first: usize, values: &mut [f64]) {
+        let slots = first..first + values.len();
+        for (slot, value) in self.partial[part].0[slots.clone()].iter().zip(&*values) {
+            slot.store(value.to_bits(), Ordering::Relaxed);
+        }
         self.barrier(part);
-        let [a, b] =
-            [0, 1].map(|p| f64::from_bits(self.partial[p].0[slot].load(Ordering::Relaxed)));
-        a + b
+        for (slot, value) in slots.zip(values) {
+            let [a, b] =
+                [0, 1].map(|p| f64::from_bits(self.partial[p].0[slot].load(Ordering::Relaxed)));
+            *value = a + b;
+        }
     }
 
     fn reset(&self) {

@@ -43,6 +43,10 @@ mod tests {
                     if k % 3 == 0 {
                         team.barrier(part);
                     }
+                    // Several at one barrier, alternating between slots 2–4 and 5–7.
+                    let mut many = [value, 2.0 * value, -value];
+                    team.sums(part, 2 + 3 * (k % 2) as usize, &mut many);
+                    assert_eq!(many, [3.0, 6.0, -3.0].map(|m| m * k as f64));
                 }
                 sums
             });

@@ -291,6 +291,15 @@ fn pcg_inner(params: &ImplicitParams, buffers: &mut ImplicitBuffers) -> (u32, f3
     // A mesh cloth's coarse correction is not split between threads.
     let halves = Halves::plan(op, coarse.as_deref()).filter(|_| mesh.is_none());
     let may_share = halves.is_some() && params.helper_thread;
+    // Sums as the split solve sums them (when it may be split), so that a
+    // solve gives the same bits on one thread or two.
+    let dot = |a: &Soa, b: &Soa| halves.map_or_else(|| dot(a, b), |h| h.dot(a, b));
+    // From the past solutions' guess, the directions leave out what it
+    // solved ([`past::Past::deflate`]); the stopping rule still measures
+    // `rᵀP⁻¹r`.
+    if projected {
+        past.deflate(y, dot);
+    }
     let started = Instant::now();
     if let Some(halves) = halves
         && may_share
@@ -298,21 +307,13 @@ fn pcg_inner(params: &ImplicitParams, buffers: &mut ImplicitBuffers) -> (u32, f3
         && let Some(claim) = team::claim()
     {
         let limits = (delta, delta0, tol2, params.max_iterations);
+        let past = projected.then_some(&*past);
         let (iterations, delta) =
-            halves::iterate(&claim, halves, op, coarse, [dv, r, y, q], limits);
+            halves::iterate(&claim, halves, op, coarse, past, [dv, r, y, q], limits);
         balance(op, dv, r, [d, q]);
         *threads = 2;
         choice.record(2, started.elapsed(), iterations);
         return (iterations, (delta / delta0).max(0.0).sqrt() as f32);
-    }
-    let dot = |a: &Soa, b: &Soa| halves.map_or_else(|| dot(a, b), |h| h.dot(a, b));
-    // From the past solutions' guess, the directions leave out what it
-    // solved ([`past::Past::deflate`]); the stopping rule still measures
-    // `rᵀP⁻¹r`. Not for a solve that may be split, whose result is to be
-    // the same on one thread or two.
-    let deflate = projected && halves.is_none();
-    if deflate {
-        past.deflate(y);
     }
     d.copy_from(y);
     let mut iterations = 0;
@@ -335,8 +336,8 @@ fn pcg_inner(params: &ImplicitParams, buffers: &mut ImplicitBuffers) -> (u32, f3
         }
         precondition(op, coarse.as_deref_mut(), mesh.as_deref_mut(), r, y);
         let next = dot(r, y);
-        if deflate {
-            past.deflate(y);
+        if projected {
+            past.deflate(y, dot);
         }
         let beta = (next / delta) as f32;
         for (d, y) in d.0.iter_mut().zip(&y.0) {

@@ -10,7 +10,9 @@
 //!    of first-level aggregates (the cut lies between two bands); a
 //!    barrier, the V-cycle over the coarser levels on the helper, a
 //!    barrier, then `y += R₁e` over the half's bands;
-//! 3. `rᵀy`, summed at a barrier; `d = y + βd`; a barrier.
+//! 3. `rᵀy`, summed at a barrier (with, when the directions are deflated
+//!    by the past solutions, their products with `y`, after which each
+//!    thread deflates its half of `y`); `d = y + βd`; a barrier.
 //!
 //! Every value is formed by the same operations as on one thread, and the
 //! single-thread loop sums its dot products in the same two halves
@@ -23,7 +25,9 @@ use bevy::math::Vec3A;
 
 use super::coarse::{Coarse, LevelWork};
 use super::operator::{Operator, Soa, dot_parts};
-use crate::sim::team::{Claim, Team};
+use super::past::Past;
+use crate::sim::settings::MAX_PAST_SOLUTIONS;
+use crate::sim::team::{Claim, SUM_SLOTS, Team};
 use crate::simd::{self, Level};
 
 /// Particles from which a grid cloth's solve is split between two threads.
@@ -87,6 +91,9 @@ impl Choice {
     }
 }
 
+// `rᵀy` and a deflation's products are summed at one barrier.
+const _: () = assert!((MAX_PAST_SOLUTIONS as usize) < SUM_SLOTS);
+
 /// Where a solve's vectors are cut in two.
 #[derive(Clone, Copy, Debug)]
 pub(super) struct Halves {
@@ -146,6 +153,8 @@ fn kernel() -> Option<Level> {
 struct Shared<'a> {
     op: &'a Operator,
     coarse: Option<&'a Coarse>,
+    /// The past solutions that deflate the directions, if they do.
+    past: Option<&'a Past>,
     halves: Halves,
     n: usize,
     dv: [*mut f32; 3],
@@ -168,14 +177,16 @@ struct Shared<'a> {
 unsafe impl Sync for Shared<'_> {}
 
 /// Runs the iterations of [`pcg`](super::pcg) from its first direction
-/// `d = y` on both threads; `delta` is `rᵀy`. Returns the iterations and
-/// the last `rᵀy`.
+/// `d = y` on both threads, deflating each direction by `past` if given
+/// ([`Past::deflate`]); `delta` is `rᵀy`. Returns the iterations and the
+/// last `rᵀy`.
 #[allow(clippy::too_many_arguments)]
 pub(super) fn iterate(
     claim: &Claim,
     halves: Halves,
     op: &mut Operator,
     mut coarse: Option<&mut Coarse>,
+    past: Option<&Past>,
     [dv, r, y, q]: [&mut Soa; 4],
     (delta, delta0, tol2, max_iterations): (f64, f64, f64, u32),
 ) -> (u32, f64) {
@@ -206,6 +217,7 @@ pub(super) fn iterate(
     let shared = Shared {
         op,
         coarse: coarse.as_deref(),
+        past,
         halves,
         n,
         dv: ptrs(dv),
@@ -320,9 +332,14 @@ unsafe fn body(s: &Shared, team: &Team, part: usize) -> (u32, f64) {
             // SAFETY: this half of `r` is settled; `body`'s contract.
             unsafe { coarse_half(s, c, team, part, band) };
         }
+        let next = match s.past {
+            // SAFETY: this half of `y`, settled by this thread.
+            None => team.sum(part, 1, dot_parts(r, unsafe { slices(s.y, &own) })),
+            // SAFETY: as above; `y` is then this thread's alone to deflate.
+            Some(past) => unsafe { deflated(past, r, s.y, &own, team, part) },
+        };
         // SAFETY: this half of `y`, settled by this thread.
         let y = unsafe { slices(s.y, &own) };
-        let next = team.sum(part, 1, dot_parts(r, y));
         // 3. d = y + βd over this half, then wait for the other's.
         let beta = (next / delta) as f32;
         // SAFETY: this half of `d`, this thread's alone until the barrier.
@@ -337,6 +354,40 @@ unsafe fn body(s: &Shared, team: &Team, part: usize) -> (u32, f64) {
         iterations += 1;
     }
     (iterations, delta)
+}
+
+/// `rᵀy` over both halves, and this half of `y` deflated by `past`: `rᵀy`
+/// and the products `(AW)ᵀy` summed at one barrier, then
+/// [`Past::take_along`] on this half (the single-thread solve sums the
+/// same halves, [`Halves::dot`], and deflates after `rᵀy` too).
+///
+/// # Safety
+/// `y` holds this half, `own`, settled, and only this thread reads or
+/// writes it until the next barrier.
+#[inline(always)]
+unsafe fn deflated(
+    past: &Past,
+    r: [&[f32]; 3],
+    y: [*mut f32; 3],
+    own: &Range<usize>,
+    team: &Team,
+    part: usize,
+) -> f64 {
+    let images = past.images();
+    let mut sums = [0.0_f64; SUM_SLOTS];
+    {
+        // SAFETY: the caller's.
+        let y = unsafe { slices(y, own) };
+        sums[0] = dot_parts(r, y);
+        for (sum, image) in sums[1..].iter_mut().zip(images) {
+            *sum = dot_parts(image.0.each_ref().map(|c| &c[own.clone()]), y);
+        }
+    }
+    let sums = &mut sums[..1 + images.len()];
+    team.sums(part, 1, sums);
+    // SAFETY: the caller's; the shared slice above has ended.
+    past.take_along(&sums[1..], unsafe { slices_mut(y, own) }, own.start);
+    sums[0]
 }
 
 /// `y += R₁ V₁(R₁ᵀ r)` with the bands split at `band`: this thread's

@@ -126,7 +126,7 @@ impl Past {
             return false;
         };
         dv.zero();
-        add_combination(dv, solutions, &c, 1.0);
+        add_combination(dv.0.each_mut().map(|c| &mut c[..]), 0, solutions, &c, 1.0);
         true
     }
 
@@ -136,28 +136,47 @@ impl Past {
     /// that starts from that guess and takes its directions so deflated
     /// never searches again along what the guess already solved (Saad,
     /// Yeung, Erhel and Guyomarc'h's deflated conjugate gradient). `k` dot
-    /// products and `k` updates.
-    pub fn deflate(&self, y: &mut Soa) {
-        let k = self.filled;
+    /// products (by `dot`, so that a solve that sums in halves sums these
+    /// so too) and `k` updates.
+    pub fn deflate(&self, y: &mut Soa, dot: impl Fn(&Soa, &Soa) -> f64) {
         let mut ay = [0.0_f64; MOST];
-        for (ay, image) in ay.iter_mut().zip(&self.images[..k]) {
+        for (ay, image) in ay.iter_mut().zip(self.images()) {
             *ay = dot(image, y);
         }
-        if let Some(mu) = solve_gram(&self.gram, &ay, k) {
-            add_combination(y, &self.slots[..k], &mu, -1.0);
+        let ay = &ay[..self.filled];
+        self.take_along(ay, y.0.each_mut().map(|c| &mut c[..]), 0);
+    }
+
+    /// The kept solutions' products with `A` (N·s), as many as are kept.
+    pub fn images(&self) -> &[Soa] {
+        &self.images[..self.filled]
+    }
+
+    /// The second half of [`deflate`](Self::deflate) on the particles
+    /// from `start` on that `y` holds: `y −= W (WᵀAW)⁻¹ ay`, `ay` the
+    /// products `(AW)ᵀy` (kg·m²/s²) summed over every particle, one per
+    /// kept solution as [`images`](Self::images) lists them.
+    pub fn take_along(&self, ay: &[f64], y: [&mut [f32]; 3], start: usize) {
+        let k = self.filled.min(ay.len());
+        let mut b = [0.0_f64; MOST];
+        b[..k].copy_from_slice(&ay[..k]);
+        if let Some(mu) = solve_gram(&self.gram, &b, k) {
+            add_combination(y, start, &self.slots[..k], &mu, -1.0);
         }
     }
 }
 
-/// `out += sign · Σ c_j w_j`.
-fn add_combination(out: &mut Soa, w: &[Soa], c: &[f64; MOST], sign: f32) {
+/// `out += sign · Σ c_j w_j` over `out`'s particles, the first of them
+/// particle `start` of the `w_j`.
+fn add_combination(mut out: [&mut [f32]; 3], start: usize, w: &[Soa], c: &[f64; MOST], sign: f32) {
     for (w, &c) in w.iter().zip(c) {
         let c = sign * c as f32;
         if c == 0.0 {
             continue;
         }
-        for (x, w) in out.0.iter_mut().zip(&w.0) {
-            for (x, &w) in x.iter_mut().zip(w.iter()) {
+        for (x, w) in out.iter_mut().zip(&w.0) {
+            let w = &w[start..start + x.len()];
+            for (x, &w) in x.iter_mut().zip(w) {
                 *x += c * w;
             }
         }

@@ -585,7 +585,7 @@ fn the_past_solutions_guess_is_the_solution_when_they_span_it() {
         along(op, &y, &w2).abs() > 0.1,
         "the test direction has a part along w2"
     );
-    past.deflate(&mut y);
+    past.deflate(&mut y, dot);
     for w in [&w1, &w2] {
         let cosine = along(op, &y, w);
         assert!(cosine.abs() <= 1e-4, "{cosine}");
