@@ -27,7 +27,7 @@
 
 use std::ops::Range;
 
-use bevy::math::{Mat3, Vec3, Vec3A};
+use bevy::math::{DMat3, DVec3, Mat3, Vec3, Vec3A};
 
 use super::bodies::Coupling;
 #[cfg(test)]
@@ -186,13 +186,6 @@ pub(super) fn sym_of(t: f32, s: f32, u: [f32; 3]) -> [f32; 6] {
     ]
 }
 
-/// The six components of a symmetric matrix.
-fn sym(m: Mat3) -> [f32; 6] {
-    [
-        m.x_axis.x, m.y_axis.y, m.z_axis.z, m.y_axis.x, m.z_axis.x, m.z_axis.y,
-    ]
-}
-
 /// The symmetric matrix whose six components are `s`.
 pub(super) fn sym_matrix(s: &[f32; 6]) -> Mat3 {
     let [xx, yy, zz, xy, xz, yz] = *s;
@@ -205,20 +198,35 @@ pub(super) fn sym_matrix(s: &[f32; 6]) -> Mat3 {
 
 /// The inverse of the symmetric matrix `s`, or of its diagonal if it is
 /// singular: the cofactors of its columns `x`, `y`, `z` over the
-/// determinant `z · (x × y)`. Written out rather than left to the math
-/// library, whose formula may change between versions: the preconditioner,
-/// and with it every implicit step, keeps the same bits.
-fn sym_inverse(s: [f32; 6]) -> [f32; 6] {
-    let [xx, yy, zz, ..] = s;
-    let m = sym_matrix(&s);
+/// determinant `z · (x × y)`, in f64. A particle's block is its mass
+/// (kg) plus its links' stiffness times `h²` (kg), and the links of a
+/// flat cloth lie in its plane, so across it the block holds the mass
+/// alone: for a light particle with stiff links (a copy a tear splits off
+/// takes a share of the particle's mass, by area, that may be small) its
+/// eigenvalues differ by five orders of magnitude or more, and cofactors
+/// in f32 lose the mass to rounding, which can give the inverse of a
+/// positive definite block a negative eigenvalue and stop the conjugate
+/// gradient with a negative `rᵀP⁻¹r`.
+/// Written out rather than left to the math library, whose formula may
+/// change between versions: the preconditioner, and with it every
+/// implicit step, keeps the same bits.
+pub(super) fn sym_inverse(s: [f32; 6]) -> [f32; 6] {
+    let [xx, yy, zz, xy, xz, yz] = s.map(f64::from);
+    let m = DMat3::from_cols(
+        DVec3::new(xx, xy, xz),
+        DVec3::new(xy, yy, yz),
+        DVec3::new(xz, yz, zz),
+    );
     let (x, y, z) = (m.x_axis, m.y_axis, m.z_axis);
     let (yz, zx, xy) = (y.cross(z), z.cross(x), x.cross(y));
     let det = z.dot(xy);
     if det.abs() > 1e-30 && det.is_finite() {
-        let inv = Vec3::splat(det.recip());
-        sym(Mat3::from_cols(yz * inv, zx * inv, xy * inv).transpose())
+        let inv = det.recip();
+        // The inverse is symmetric: its columns are the cofactors' rows.
+        let [a, b, c] = [yz * inv, zx * inv, xy * inv];
+        [a.x, b.y, c.z, a.y, a.z, b.z].map(|v| v as f32)
     } else {
-        [1.0 / xx, 1.0 / yy, 1.0 / zz, 0.0, 0.0, 0.0]
+        [1.0 / s[0], 1.0 / s[1], 1.0 / s[2], 0.0, 0.0, 0.0]
     }
 }
 
