@@ -37,7 +37,7 @@ pub struct Limited {
 }
 
 /// Shortens every link of `links` stretched past `(1 + bound)` times its
-/// rest length to `(1 + 0.98 bound)` times it, sweep after sweep, until a
+/// rest length to `(1 + 0.95 bound)` times it, sweep after sweep, until a
 /// sweep finds none past the bound, `max_sweeps` were taken, or 8 sweeps
 /// took less than a tenth off the worst excess (links held stretched
 /// between pinned particles, which no sweep can help). `gamma` (s) is how a
@@ -56,8 +56,10 @@ pub fn limit_strain(
     max_sweeps: u32,
 ) -> Limited {
     /// What a link past the bound is shortened to, as a fraction of the
-    /// bound: a little under it, so that the sweeps end.
-    const TARGET: f32 = 0.98;
+    /// bound: far enough under it that the sweeps end below the bound
+    /// rather than settle just above it where links pull against each
+    /// other (after a 256×256 sheet's wildest first steps).
+    const TARGET: f32 = 0.95;
     /// Sweeps over which the worst excess must fall by [`PROGRESS`].
     const WINDOW: u32 = 8;
     /// Least fraction of the worst excess [`WINDOW`] sweeps must take off.
@@ -151,7 +153,8 @@ mod tests {
         let centre = |x: &[Vec3]| x[0] / w[0] + x[1] / w[1];
         let (p0, c0) = (momentum(&v), centre(&x));
         limit_strain(&[&links], &mut x, &mut v, &w, 1.0 / 60.0, 0.1, 1);
-        assert!(((x[1] - x[0]).length() - 0.1098).abs() < 1e-6);
+        // Shortened to 95 % of the bound: 1.095 times its rest length.
+        assert!(((x[1] - x[0]).length() - 0.1095).abs() < 1e-6);
         assert!((momentum(&v) - p0).length() < 1e-4);
         assert!((centre(&x) - c0).length() < 1e-6);
     }
