@@ -140,14 +140,17 @@ pub struct ImplicitParams {
     /// Galerkin projection). A cloth in motion repeats much of its last
     /// steps' motion (its fall, its swing, a fold flapping back and forth
     /// from one step to the next), so the solve starts most of the way
-    /// there, and then searches only across them. It costs one product with the step's matrix per kept
-    /// solution, so it is used once a solve has taken half of
-    /// [`max_iterations`](Self::max_iterations) and until one takes less
-    /// than a quarter: a cloth whose solves stay short (at rest, swinging
-    /// gently) starts from the last step's solution alone, as with 0. A
-    /// cloth hung from its centre takes a third to half fewer iterations
-    /// and its solves off the cap (docs/architecture.md, "The starting
-    /// guess"). 4 by default; 0 turns it off.
+    /// there, and then searches only across them; a cloth in pieces (torn,
+    /// cut) takes a combination of its own on each piece. It costs one
+    /// product with the step's matrix per kept solution, so it is used
+    /// once a solve has taken half of
+    /// [`max_iterations`](Self::max_iterations) and until 30 solves in a
+    /// row take less than a quarter: a cloth whose solves stay short (at
+    /// rest, swinging gently) starts from the last step's solution alone,
+    /// as with 0. A cloth hung from its centre, or the pieces of a cut
+    /// one, take about half the iterations and their solves off the cap
+    /// (docs/architecture.md, "The starting guess"). 4 by default; 0 turns
+    /// it off.
     pub past_solutions: u32,
     /// Type 2 Jacobian.
     pub type2_jacobian: Type2Jacobian,

@@ -251,6 +251,8 @@ fn pcg_inner(params: &ImplicitParams, buffers: &mut ImplicitBuffers) -> (u32, f3
         *warm = false;
         return (0, 0.0);
     }
+    // A mesh cloth's coarse correction is not split between threads.
+    let halves = Halves::plan(op, coarse.as_deref()).filter(|_| mesh.is_none());
     let tried_warm = *warm;
     let mut delta = f64::NAN;
     let mut projected = false;
@@ -259,8 +261,9 @@ fn pcg_inner(params: &ImplicitParams, buffers: &mut ImplicitBuffers) -> (u32, f3
         // solutions rather than the last alone. Not while the solve holds
         // contacts: their stiff springs come and go from one step to the
         // next, and the last steps' motion does not foretell them.
+        // A split solve deflates the whole cloth's combination.
         if past.wanted() && contacts.none() {
-            projected = past.guess(op, rhs, dv);
+            projected = past.guess(op, rhs, dv, halves.is_none());
         }
         dv.filter(&op.free);
         op.apply(dv, q);
@@ -288,8 +291,6 @@ fn pcg_inner(params: &ImplicitParams, buffers: &mut ImplicitBuffers) -> (u32, f3
     // mostly the mass), and a cloth at rest has a right-hand side near 0.
     let floor = (params.velocity_tolerance as f64).powi(2) * op.total_mass();
     let tol2 = (params.tolerance as f64).powi(2).max(floor / delta0);
-    // A mesh cloth's coarse correction is not split between threads.
-    let halves = Halves::plan(op, coarse.as_deref()).filter(|_| mesh.is_none());
     let may_share = halves.is_some() && params.helper_thread;
     // Sums as the split solve sums them (when it may be split), so that a
     // solve gives the same bits on one thread or two.
@@ -605,6 +606,23 @@ fn build_held(dynamics: &Dynamics, (alpha, beta): (f32, f32), buffers: &mut Impl
 
 fn solve(dynamics: &Dynamics, buffers: &mut ImplicitBuffers) {
     let params = &dynamics.settings.implicit;
+    if buffers.past.wanted() {
+        // The pairs `A` couples: every link, and the blocks besides.
+        let c = dynamics.connections;
+        let links = [
+            &c.structural,
+            &c.shear,
+            &c.bend,
+            &c.bend_diagonal,
+            &c.crease,
+        ]
+        .into_iter()
+        .flatten()
+        .map(|l| (l.a, l.b))
+        .chain(buffers.blocks.iter().map(|b| (b.a, b.b)));
+        let n = buffers.force.len();
+        buffers.past.find_pieces(links, n, buffers.links_generation);
+    }
     let (iterations, residual) = pcg(params, buffers);
     let keep = params.past_solutions as usize;
     buffers

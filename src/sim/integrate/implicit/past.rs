@@ -13,10 +13,14 @@
 //! It costs one product with `A` per kept solution. A conjugate gradient
 //! from that guess may then also keep its directions `A`-orthogonal to the
 //! kept solutions ([`Past::deflate`]), so that it never searches again
-//! along what the guess solved.
+//! along what the guess solved. A cloth in several pieces takes the
+//! combination with coefficients of its own on each piece ([`pieces`]).
 
 use super::operator::{Operator, Soa, dot};
 use crate::sim::settings::MAX_PAST_SOLUTIONS;
+use pieces::Pieces;
+
+mod pieces;
 
 /// Most solutions kept.
 const MOST: usize = MAX_PAST_SOLUTIONS as usize;
@@ -26,6 +30,11 @@ const MOST: usize = MAX_PAST_SOLUTIONS as usize;
 /// others do not: it is left out of the combination, which keeps the
 /// small system well conditioned.
 const INDEPENDENT: f64 = 1e-6;
+
+/// Short solves in a row (each under a quarter of the cap) after which
+/// the guess is no longer made: a solve is often short because it started
+/// from the guess, and the next one, without it, would be long again.
+const EASY_RUN: u32 = 30;
 
 /// The last steps' solutions `Δv` (m/s), the newest overwriting the oldest,
 /// and what the last guess made of them.
@@ -44,6 +53,12 @@ pub(super) struct Past {
     /// Whether the solves are hard enough for the guess to pay
     /// ([`remember`](Self::remember)).
     hard: bool,
+    /// Short solves since the last that was not.
+    easy: u32,
+    /// The cloth's pieces, and their small systems.
+    pieces: Pieces,
+    /// Whether the last guess combined the solutions piece by piece.
+    by_piece: bool,
 }
 
 impl Past {
@@ -52,6 +67,8 @@ impl Past {
         self.filled = 0;
         self.next = 0;
         self.hard = false;
+        self.easy = 0;
+        self.by_piece = false;
     }
 
     /// Whether the next solve is to start from the guess: the solves are
@@ -67,8 +84,8 @@ impl Past {
     ///
     /// The guess costs a product with `A` per kept solution: next to a
     /// short solve, about as much as it saves. So it is made only once a
-    /// solve has taken half the cap, and until one takes less than a
-    /// quarter of it.
+    /// solve has taken half the cap, and until [`EASY_RUN`] solves in a
+    /// row have taken less than a quarter of it.
     pub fn remember(&mut self, dv: &Soa, keep: usize, (iterations, cap): (u32, u32)) {
         let keep = keep.min(MOST);
         if self.slots.len() != keep {
@@ -80,10 +97,16 @@ impl Past {
         if self.filled > 0 && self.slots[0].0[0].len() != n {
             self.clear();
         }
-        if iterations >= cap.div_ceil(2) {
-            self.hard = true;
-        } else if iterations < cap / 4 {
-            self.hard = false;
+        if iterations < cap / 4 {
+            self.easy = self.easy.saturating_add(1);
+            if self.easy >= EASY_RUN {
+                self.hard = false;
+            }
+        } else {
+            self.easy = 0;
+            if iterations >= cap.div_ceil(2) {
+                self.hard = true;
+            }
         }
         if keep == 0 {
             return;
@@ -92,31 +115,52 @@ impl Past {
             for slot in self.slots.iter_mut().chain(&mut self.images) {
                 slot.resize(n);
             }
+            self.pieces.reserve(n);
         }
         self.slots[self.next].copy_from(dv);
         self.filled = (self.filled + 1).min(keep);
         self.next = (self.next + 1) % keep;
     }
 
+    /// Groups the cloth's `n` particles by the pieces `links` (particle
+    /// pairs: every pair `A` couples) join, for a guess
+    /// [`by_piece`](Self::guess); kept while the links' `generation` and
+    /// `n` stay the same.
+    pub fn find_pieces(
+        &mut self,
+        links: impl Iterator<Item = (u32, u32)>,
+        n: usize,
+        generation: Option<u64>,
+    ) {
+        self.pieces.find(links, n, generation);
+    }
+
     /// Writes into `dv` the combination of the kept solutions closest to
     /// the solution of `A Δv = b` in `A`'s energy norm, each first filtered
     /// by the step's free particles; keeps their products with `A` for
-    /// [`deflate`](Self::deflate). False, with `dv` untouched, when none is
-    /// kept, their length is not `b`'s, or none adds anything.
-    pub fn guess(&mut self, op: &mut Operator, b: &Soa, dv: &mut Soa) -> bool {
+    /// [`deflate`](Self::deflate). With `by_piece`, and the cloth in
+    /// several pieces ([`find_pieces`](Self::find_pieces)), each piece
+    /// takes a combination of its own. False, with `dv` untouched, when
+    /// none is kept, their length is not `b`'s, or none adds anything.
+    pub fn guess(&mut self, op: &mut Operator, b: &Soa, dv: &mut Soa, by_piece: bool) -> bool {
         let k = self.filled;
         let n = b.0[0].len();
         let (solutions, images) = (&mut self.slots[..k], &mut self.images[..k]);
+        self.by_piece = false;
         if k == 0 || solutions.iter().any(|w| w.0[0].len() != n) {
             return false;
         }
+        for (w, image) in solutions.iter_mut().zip(images.iter_mut()) {
+            w.filter(&op.free);
+            op.apply(w, image);
+        }
+        if by_piece && self.pieces.count(n) > 1 {
+            self.by_piece = self.pieces.guess(solutions, images, b, dv);
+            return self.by_piece;
+        }
         // The Gram matrix WᵀAW and Wᵀb, in f64.
         let mut wb = [0.0_f64; MOST];
-        for w in solutions.iter_mut() {
-            w.filter(&op.free);
-        }
         for j in 0..k {
-            op.apply(&solutions[j], &mut images[j]);
             for (i, w) in solutions.iter().enumerate() {
                 self.gram[i][j] = dot(w, &images[j]);
             }
@@ -137,8 +181,13 @@ impl Past {
     /// never searches again along what the guess already solved (Saad,
     /// Yeung, Erhel and Guyomarc'h's deflated conjugate gradient). `k` dot
     /// products (by `dot`, so that a solve that sums in halves sums these
-    /// so too) and `k` updates.
-    pub fn deflate(&self, y: &mut Soa, dot: impl Fn(&Soa, &Soa) -> f64) {
+    /// so too) and `k` updates; piece by piece after a guess that was.
+    pub fn deflate(&mut self, y: &mut Soa, dot: impl Fn(&Soa, &Soa) -> f64) {
+        let k = self.filled;
+        if self.by_piece {
+            self.pieces.deflate(&self.slots[..k], &self.images[..k], y);
+            return;
+        }
         let mut ay = [0.0_f64; MOST];
         for (ay, image) in ay.iter_mut().zip(self.images()) {
             *ay = dot(image, y);
@@ -147,8 +196,11 @@ impl Past {
         self.take_along(ay, y.0.each_mut().map(|c| &mut c[..]), 0);
     }
 
-    /// The kept solutions' products with `A` (N·s), as many as are kept.
+    /// The kept solutions' products with `A` (N·s), as many as are kept,
+    /// for a split solve's [`take_along`](Self::take_along) (after a guess
+    /// of the whole cloth, not [`by_piece`](Self::guess)).
     pub fn images(&self) -> &[Soa] {
+        debug_assert!(!self.by_piece, "a split solve deflates the whole cloth");
         &self.images[..self.filled]
     }
 
