@@ -27,7 +27,7 @@
 
 use std::ops::Range;
 
-use bevy::math::{DMat3, DVec3, Mat3, Vec3, Vec3A};
+use bevy::math::{DVec3, Mat3, Vec3, Vec3A};
 
 use super::bodies::Coupling;
 #[cfg(test)]
@@ -198,25 +198,20 @@ pub(super) fn sym_matrix(s: &[f32; 6]) -> Mat3 {
 
 /// The inverse of the symmetric matrix `s`, or of its diagonal if it is
 /// singular: the cofactors of its columns `x`, `y`, `z` over the
-/// determinant `z · (x × y)`, in f64. A particle's block is its mass
-/// (kg) plus its links' stiffness times `h²` (kg), and the links of a
-/// flat cloth lie in its plane, so across it the block holds the mass
-/// alone: for a light particle with stiff links (a copy a tear splits off
-/// takes a share of the particle's mass, by area, that may be small) its
-/// eigenvalues differ by five orders of magnitude or more, and cofactors
-/// in f32 lose the mass to rounding, which can give the inverse of a
-/// positive definite block a negative eigenvalue and stop the conjugate
-/// gradient with a negative `rᵀP⁻¹r`.
-/// Written out rather than left to the math library, whose formula may
-/// change between versions: the preconditioner, and with it every
-/// implicit step, keeps the same bits.
+/// determinant `z · (x × y)`. A particle's block is its mass (kg) plus its
+/// links' stiffness times `h²` (kg), and the links of a flat cloth lie in
+/// its plane, so across it the block holds the mass alone: for a light
+/// particle with stiff links (a copy a tear splits off takes a share of
+/// the particle's mass, by area, that may be small) its eigenvalues differ
+/// by five orders of magnitude or more, and cofactors in f32 can lose the
+/// mass to rounding and give the inverse of a positive definite block a
+/// negative eigenvalue, which stops the conjugate gradient with a negative
+/// `rᵀP⁻¹r`. An inverse that comes out so is formed again in f64. Written
+/// out rather than left to the math library, whose formula may change
+/// between versions: the preconditioner, and with it every implicit step,
+/// keeps the same bits.
 pub(super) fn sym_inverse(s: [f32; 6]) -> [f32; 6] {
-    let [xx, yy, zz, xy, xz, yz] = s.map(f64::from);
-    let m = DMat3::from_cols(
-        DVec3::new(xx, xy, xz),
-        DVec3::new(xy, yy, yz),
-        DVec3::new(xz, yz, zz),
-    );
+    let m = sym_matrix(&s);
     let (x, y, z) = (m.x_axis, m.y_axis, m.z_axis);
     let (yz, zx, xy) = (y.cross(z), z.cross(x), x.cross(y));
     let det = z.dot(xy);
@@ -224,10 +219,41 @@ pub(super) fn sym_inverse(s: [f32; 6]) -> [f32; 6] {
         let inv = det.recip();
         // The inverse is symmetric: its columns are the cofactors' rows.
         let [a, b, c] = [yz * inv, zx * inv, xy * inv];
-        [a.x, b.y, c.z, a.y, a.z, b.z].map(|v| v as f32)
-    } else {
-        [1.0 / s[0], 1.0 / s[1], 1.0 / s[2], 0.0, 0.0, 0.0]
+        let inverse = [a.x, b.y, c.z, a.y, a.z, b.z];
+        if positive_definite(inverse.map(f64::from)) {
+            return inverse;
+        }
+        if let Some(inverse) = sym_inverse_f64(s) {
+            return inverse;
+        }
     }
+    [1.0 / s[0], 1.0 / s[1], 1.0 / s[2], 0.0, 0.0, 0.0]
+}
+
+/// [`sym_inverse`] in f64, rounded to f32; `None` if `s` is singular.
+fn sym_inverse_f64(s: [f32; 6]) -> Option<[f32; 6]> {
+    let [xx, yy, zz, xy, xz, yz] = s.map(f64::from);
+    let (x, y, z) = (
+        DVec3::new(xx, xy, xz),
+        DVec3::new(xy, yy, yz),
+        DVec3::new(xz, yz, zz),
+    );
+    let (yz, zx, xy) = (y.cross(z), z.cross(x), x.cross(y));
+    let det = z.dot(xy);
+    (det.abs() > 1e-30 && det.is_finite()).then(|| {
+        let inv = det.recip();
+        let [a, b, c] = [yz * inv, zx * inv, xy * inv];
+        [a.x, b.y, c.z, a.y, a.z, b.z].map(|v| v as f32)
+    })
+}
+
+/// Whether the symmetric matrix with components `s` (xx, yy, zz, xy, xz,
+/// yz) is positive definite: its leading minors are positive.
+fn positive_definite(s: [f64; 6]) -> bool {
+    let [xx, yy, zz, xy, xz, yz] = s;
+    let minor = xx * yy - xy * xy;
+    let det = xx * (yy * zz - yz * yz) - xy * (xy * zz - yz * xz) + xz * (xy * yz - yy * xz);
+    xx > 0.0 && minor > 0.0 && det > 0.0
 }
 
 /// The operator of one step, its block-Jacobi preconditioner and scratch.
