@@ -143,7 +143,7 @@ pub struct ImplicitParams {
     /// there, and then searches only across them; a cloth in pieces (torn,
     /// cut) takes a combination of its own on each piece. It costs one
     /// product with the step's matrix per kept solution, so it is used
-    /// once a solve has taken half of
+    /// once a solve has taken four fifths of
     /// [`max_iterations`](Self::max_iterations) and until 30 solves in a
     /// row take less than a quarter: a cloth whose solves stay short (at
     /// rest, swinging gently) starts from the last step's solution alone,

@@ -83,9 +83,11 @@ impl Past {
     /// over.
     ///
     /// The guess costs a product with `A` per kept solution: next to a
-    /// short solve, about as much as it saves. So it is made only once a
-    /// solve has taken half the cap, and until [`EASY_RUN`] solves in a
-    /// row have taken less than a quarter of it.
+    /// solve of a few tens of iterations, about as much as it saves (on a
+    /// 256×256 sheet falling from two corners, whose solves take 20 to 76
+    /// iterations, it saves 2 a frame and costs 5 ms). So it is made
+    /// only once a solve has taken four fifths of the cap, and until
+    /// [`EASY_RUN`] solves in a row have taken less than a quarter of it.
     pub fn remember(&mut self, dv: &Soa, keep: usize, (iterations, cap): (u32, u32)) {
         let keep = keep.min(MOST);
         if self.slots.len() != keep {
@@ -104,7 +106,7 @@ impl Past {
             }
         } else {
             self.easy = 0;
-            if iterations >= cap.div_ceil(2) {
+            if iterations >= (cap * 4).div_ceil(5) {
                 self.hard = true;
             }
         }

@@ -656,9 +656,9 @@ fn the_past_solutions_guess_is_the_solution_when_they_span_it() {
         let cosine = along(op, &y, w);
         assert!(cosine.abs() <= 1e-4, "{cosine}");
     }
-    // It is wanted from a solve of half the cap until 30 in a row of less
-    // than a quarter; none when nothing is kept.
-    let mut run = vec![(24, false), (49, false), (50, true), (25, true)];
+    // It is wanted from a solve of four fifths of the cap until 30 in a
+    // row of less than a quarter; none when nothing is kept.
+    let mut run = vec![(24, false), (79, false), (80, true), (25, true)];
     run.extend([(24, true); 29]);
     run.extend([(30, true), (24, true), (24, true)]);
     run.extend([(24, true); 27]);
