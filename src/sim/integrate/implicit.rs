@@ -604,22 +604,28 @@ fn build_held(dynamics: &Dynamics, (alpha, beta): (f32, f32), buffers: &mut Impl
     build(dynamics, dynamics.inverse_masses, alpha, beta, buffers);
 }
 
+/// The particle pairs `A` couples: every link, and the blocks besides.
+fn coupled<'a>(
+    c: &'a crate::sim::connections::Connections,
+    blocks: &'a [Block],
+) -> impl Iterator<Item = (u32, u32)> + 'a {
+    [
+        &c.structural,
+        &c.shear,
+        &c.bend,
+        &c.bend_diagonal,
+        &c.crease,
+    ]
+    .into_iter()
+    .flatten()
+    .map(|l| (l.a, l.b))
+    .chain(blocks.iter().map(|b| (b.a, b.b)))
+}
+
 fn solve(dynamics: &Dynamics, buffers: &mut ImplicitBuffers) {
     let params = &dynamics.settings.implicit;
     if buffers.past.wanted() {
-        // The pairs `A` couples: every link, and the blocks besides.
-        let c = dynamics.connections;
-        let links = [
-            &c.structural,
-            &c.shear,
-            &c.bend,
-            &c.bend_diagonal,
-            &c.crease,
-        ]
-        .into_iter()
-        .flatten()
-        .map(|l| (l.a, l.b))
-        .chain(buffers.blocks.iter().map(|b| (b.a, b.b)));
+        let links = coupled(dynamics.connections, &buffers.blocks);
         let n = buffers.force.len();
         buffers.past.find_pieces(links, n, buffers.links_generation);
     }

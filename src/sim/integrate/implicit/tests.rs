@@ -724,17 +724,7 @@ fn a_cloth_in_pieces_takes_a_combination_on_each() {
     for w in [&w1, &w2] {
         past.remember(w, 4, (100, 100));
     }
-    let c = dynamics.connections;
-    let links = [
-        &c.structural,
-        &c.shear,
-        &c.bend,
-        &c.bend_diagonal,
-        &c.crease,
-    ]
-    .into_iter()
-    .flatten()
-    .map(|l| (l.a, l.b));
+    let links = coupled(dynamics.connections, &[]);
     past.find_pieces(links, n, None);
     let size = (0..n).map(|i| x.get(i).length()).fold(0.0, f32::max);
     let worst = |dv: &Soa| {

@@ -65,6 +65,17 @@ fn solve_from(
     (dv, b.last_iterations, b.last_residual, b.last_threads)
 }
 
+/// Asserts that two solutions are the same to the bit.
+fn assert_same_bits(alone: &[Vec3], shared: &[Vec3]) {
+    for (i, (a, b)) in alone.iter().zip(shared).enumerate() {
+        assert_eq!(
+            a.to_array().map(f32::to_bits),
+            b.to_array().map(f32::to_bits),
+            "{i}"
+        );
+    }
+}
+
 /// 50×50 with the coarse grid (aggregates of 7×7, the last band one row
 /// deep, the cut after the fourth band) and 46×46 without (the cut in the
 /// middle): the same Δv to the bit, the same iterations and residual.
@@ -85,13 +96,7 @@ fn the_helper_thread_changes_no_bit_of_the_solve() {
             "{n}×{n}: the helper was never free"
         );
         assert_eq!((iterations, residual), (iterations2, residual2));
-        for (i, (a, b)) in alone.iter().zip(&shared).enumerate() {
-            assert_eq!(
-                a.to_array().map(f32::to_bits),
-                b.to_array().map(f32::to_bits),
-                "{i}"
-            );
-        }
+        assert_same_bits(&alone, &shared);
     }
 }
 
@@ -121,13 +126,7 @@ fn the_helper_thread_changes_no_bit_of_a_deflated_solve() {
     let shares = crate::simd::level() > crate::simd::Level::Scalar;
     assert_eq!(threads2, if shares { 2 } else { 1 });
     assert_eq!((iterations, residual), (iterations2, residual2));
-    for (i, (a, b)) in alone.iter().zip(&shared).enumerate() {
-        assert_eq!(
-            a.to_array().map(f32::to_bits),
-            b.to_array().map(f32::to_bits),
-            "{i}"
-        );
-    }
+    assert_same_bits(&alone, &shared);
 }
 
 /// What a build without threads does (`wasm32` in a browser; the host
