@@ -179,9 +179,10 @@ fn hung(cloth: ClothBundle) -> (Vec<u32>, u32) {
 /// disc and a 64×64 sheet, let go horizontal. Starting each solve from the
 /// best combination of the last four steps' solutions, and searching only
 /// across them (on both threads when the sheet's solve is split), keeps
-/// their solves off the cap but for a frame or none (without either: 91
-/// and 75 iterations a frame, 71 and 22 of 90 frames at the cap; without
-/// the search on the sheet's two threads, 51 a frame).
+/// their solves off the cap but for a frame or none: 47 and 40 iterations
+/// a frame, the sheet's one frame at the cap the solve that starts the
+/// guess (without either, 92 and 73 a frame, 73 and 35 of 90 frames at
+/// the cap).
 #[test]
 fn a_cloth_hung_from_its_centre_keeps_most_solves_off_the_cap() {
     use bevy_cloth::plugin::mesh_cloth::disc_mesh;
