@@ -194,8 +194,7 @@ impl Past {
         for (ay, image) in ay.iter_mut().zip(self.images()) {
             *ay = dot(image, y);
         }
-        let ay = &ay[..self.filled];
-        self.take_along(ay, y.0.each_mut().map(|c| &mut c[..]), 0);
+        self.take_along(&ay[..k], y.0.each_mut().map(|c| &mut c[..]), 0);
     }
 
     /// The kept solutions' products with `A` (N·s), as many as are kept,

@@ -12,7 +12,7 @@
 
 use std::ops::Range;
 
-use super::{MOST, solve_gram};
+use super::{MOST, add_combination, solve_gram};
 use crate::sim::integrate::implicit::operator::dot_parts;
 use crate::sim::soa::Soa;
 
@@ -46,7 +46,7 @@ pub(super) struct Pieces {
     /// Each group's `Wᵀb` or `(AW)ᵀy` (kg·m²/s²).
     sums: Vec<[f64; MOST]>,
     /// Each group's coefficients (dimensionless).
-    coefficients: Vec<[f32; MOST]>,
+    coefficients: Vec<[f64; MOST]>,
 }
 
 impl Pieces {
@@ -180,13 +180,8 @@ impl Pieces {
     fn solve(&mut self, k: usize) -> bool {
         let mut any = false;
         for ((gram, sums), c) in self.gram.iter().zip(&self.sums).zip(&mut self.coefficients) {
-            *c = [0.0; MOST];
-            if let Some(solved) = solve_gram(gram, sums, k) {
-                for (c, s) in c.iter_mut().zip(solved) {
-                    *c = s as f32;
-                }
-                any |= c.iter().any(|&c| c != 0.0);
-            }
+            *c = solve_gram(gram, sums, k).unwrap_or([0.0; MOST]);
+            any |= c.iter().any(|&c| c as f32 != 0.0);
         }
         any
     }
@@ -194,17 +189,8 @@ impl Pieces {
     /// `out += sign · Σ_j c_{group, j} w_j`, a run at a time.
     fn add(&self, out: &mut Soa, solutions: &[Soa], sign: f32) {
         for (run, group) in &self.runs {
-            for (w, &c) in solutions.iter().zip(&self.coefficients[*group]) {
-                let c = sign * c;
-                if c == 0.0 {
-                    continue;
-                }
-                for (x, w) in out.0.iter_mut().zip(&w.0) {
-                    for (x, &w) in x[run.clone()].iter_mut().zip(&w[run.clone()]) {
-                        *x += c * w;
-                    }
-                }
-            }
+            let out = out.0.each_mut().map(|c| &mut c[run.clone()]);
+            add_combination(out, run.start, solutions, &self.coefficients[*group], sign);
         }
     }
 }

@@ -52,8 +52,8 @@ fn solve_from(
         for w in past {
             let w = soa(w.len(), |i| w[i]);
             buffers.past.remember(&w, 4, (100, 100));
-            buffers.warm = !past.is_empty();
         }
+        buffers.warm = !past.is_empty();
         solve(&dynamics, &mut buffers);
         if !retry || buffers.last_threads == 2 {
             break;
