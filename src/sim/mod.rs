@@ -17,7 +17,7 @@
 //! bounding boxes), [`bevy::reflect`] (the types derive `Reflect` so an
 //! inspector can show them), [`bevy::platform`] (a clock that also works in
 //! a browser), [`crate::error`] and `crate::simd`. It names no ECS type (no component, resource, query,
-//! command, entity, message, task pool or app); `tests/architecture.rs`
+//! command, entity, message, task pool or app); `tests/suite/architecture.rs`
 //! checks it. The [`plugin`](crate::plugin) wraps these types in
 //! components.
 //!
