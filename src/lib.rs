@@ -52,6 +52,9 @@
 //!   ([`Integrator`]) and the solver's constants: the global
 //!   [`ClothDefaults`] resource, overridden per cloth by a `ClothSettings`
 //!   component.
+//! - [`ClothPlugin`] is a plugin group with a member per concern (the step,
+//!   the mesh, grabs, collision, wind, creases, tearing, worn cloth, level
+//!   of detail, diagnostics); a game disables the ones it does without.
 //! - The step runs in `FixedUpdate` in the chained [`ClothSystems`] sets and
 //!   never reads the frame delta; the mesh follows in `PostUpdate`,
 //!   interpolated between fixed steps.

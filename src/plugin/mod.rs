@@ -23,6 +23,7 @@ pub mod debug;
 pub mod diagnostics;
 pub mod events;
 pub mod frame;
+mod group;
 pub mod interaction;
 pub mod lod;
 pub mod material;
@@ -47,22 +48,56 @@ pub mod tear;
 pub mod tether;
 pub mod wind;
 
-use bevy::app::{App, FixedUpdate, Plugin};
+use bevy::app::{FixedUpdate, PluginGroup, PluginGroupBuilder};
 use bevy::ecs::intern::Interned;
-use bevy::ecs::schedule::common_conditions::any_with_component;
-use bevy::ecs::schedule::{IntoScheduleConfigs, ScheduleLabel};
+use bevy::ecs::schedule::ScheduleLabel;
 use bevy::prelude::Resource;
 
-use crate::plugin::anchor::ClothAnchors;
-use crate::plugin::components::{
-    Cloth, ClothConnections, ClothDefaults, ClothForces, ClothParticles, ClothSettings, ClothStats,
+pub use group::{
+    ClothCollisionPlugin, ClothCorePlugin, ClothCreasePlugin, ClothDiagnosticsPlugin,
+    ClothInteractionPlugin, ClothLodPlugin, ClothRenderPlugin, ClothTearingPlugin, ClothWindPlugin,
+    ClothWornPlugin,
 };
-use crate::plugin::material::ClothMaterial;
 
-/// Adds cloth simulation: the [`ClothDefaults`] resource, the
-/// [`ClothSystems`](schedule::ClothSystems) sets in `FixedUpdate` (or the
-/// schedule given to [`ClothPlugin::new`]) and the mesh sync in
-/// `PostUpdate`.
+/// Adds cloth simulation: the [`ClothDefaults`](components::ClothDefaults)
+/// resource, the [`ClothSystems`](schedule::ClothSystems) sets in
+/// `FixedUpdate` (or the schedule given to [`ClothPlugin::new`]) and the mesh
+/// sync in `PostUpdate`.
+///
+/// It is a [`PluginGroup`] of one plugin per concern, in this order:
+///
+/// | member | what it adds |
+/// |---|---|
+/// | [`ClothCorePlugin`] | the step, its sets, the cloth components, statistics, rest and sleep, [`ClothPause`](schedule::ClothPause); the others need it |
+/// | [`ClothRenderPlugin`] | the live mesh in `PostUpdate`, the default material |
+/// | [`ClothInteractionPlugin`] | grabs by game code and by the pointer |
+/// | [`ClothCollisionPlugin`] | colliders, the collider scene, cloth–cloth and self-collision |
+/// | [`ClothWindPlugin`] | [`ClothWind`](wind::ClothWind) |
+/// | [`ClothCreasePlugin`] | [`ClothCreases`](crease::ClothCreases) |
+/// | [`ClothTearingPlugin`] | tearing, cuts and seams |
+/// | [`ClothWornPlugin`] | anchors, skins, tethers, inertia frames |
+/// | [`ClothLodPlugin`] | level of detail |
+/// | [`ClothDiagnosticsPlugin`] | Bevy diagnostics of the step |
+///
+/// A game that does without a concern leaves its member out, and the rest
+/// build and run as before:
+///
+/// ```
+/// # use bevy::prelude::*;
+/// # use bevy_cloth::prelude::*;
+/// use bevy_cloth::plugin::{ClothTearingPlugin, ClothWindPlugin};
+///
+/// App::new().add_plugins((
+///     MinimalPlugins,
+///     ClothPlugin::default()
+///         .build()
+///         .disable::<ClothWindPlugin>()
+///         .disable::<ClothTearingPlugin>(),
+/// ));
+/// ```
+///
+/// The bridges (`ClothAvianPlugin`, `ClothRapierPlugin`), the panel and the
+/// debug view are plugins of their own, added after this group.
 ///
 /// **Order with a physics engine.** avian's `PhysicsPlugins::default()` steps
 /// in `FixedPostUpdate`, after the cloth's `FixedUpdate`: each fixed step the
@@ -144,130 +179,28 @@ impl Default for ClothPlugin {
     }
 }
 
-impl Plugin for ClothPlugin {
-    fn build(&self, app: &mut App) {
-        use schedule::ClothSystems::*;
-        let fixed = self.schedule;
-        app.insert_resource(ClothSchedule(fixed))
-            .init_resource::<ClothDefaults>()
-            .register_type::<ClothDefaults>()
-            .register_type::<ClothSettings>()
-            .register_type::<Cloth>()
-            .register_required_components::<Cloth, bevy::transform::components::Transform>()
-            .register_required_components::<Cloth, ClothForces>()
-            .register_required_components::<Cloth, systems::ClothScratch>()
-            .register_required_components::<Cloth, ClothStats>()
-            .register_required_components::<Cloth, sleep::ClothSleep>()
-            .register_required_components::<Cloth, lod::ClothDetail>()
-            .init_resource::<lod::ClothLodDefaults>()
-            .register_type::<lod::ClothLodDefaults>()
-            .register_type::<lod::ClothLod>()
-            .register_type::<lod::ClothDetail>()
-            .register_required_components::<Cloth, interaction::ClothGrabs>()
-            .register_required_components::<Cloth, ClothMaterial>()
-            .register_required_components::<Cloth, mesh::ClothPrevious>()
-            .register_type::<ClothParticles>()
-            .register_type::<ClothConnections>()
-            .register_type::<ClothMaterial>()
-            .register_type::<ClothAnchors>()
-            .register_type::<ClothForces>()
-            .register_type::<ClothStats>()
-            .register_type::<interaction::ClothGrabs>()
-            .register_type::<wind::ClothWind>()
-            .add_message::<events::ClothDiverged>()
-            .add_message::<tear::ClothCut>()
-            .add_message::<sew::ClothSew>()
-            .register_type::<sew::ClothSewn>()
-            .register_type::<tear::ClothTearing>()
-            .register_type::<tear::ClothTorn>()
-            .register_type::<events::ClothGrabbed>()
-            .register_type::<events::ClothReleased>()
-            .register_type::<events::ClothAtRest>()
-            .register_type::<events::ClothWoke>()
-            .register_type::<sleep::ClothSleep>()
-            .init_resource::<schedule::ClothPause>()
-            .register_type::<schedule::ClothPause>()
-            .configure_sets(
-                fixed,
-                (Prepare, Crease, Forces, Integrate, Collide, Writeback)
-                    .chain()
-                    .run_if(schedule::cloth_running),
-            )
-            .add_systems(
-                fixed,
-                (
-                    // A system with nothing to do is skipped by its run
-                    // condition, which costs no hand-off to a pool thread.
-                    (
-                        #[cfg(feature = "render")]
-                        lod::choose_detail,
-                        material::apply_density.run_if(material::materials_changed),
-                        frame::carry_with_frames.run_if(any_with_component::<frame::ClothInertia>),
-                        anchor::follow_anchors.run_if(any_with_component::<ClothAnchors>),
-                        skin::follow_skins.run_if(any_with_component::<skin::ClothSkin>),
-                    )
-                        .chain()
-                        .in_set(Prepare),
-                    (
-                        interaction::apply_grabs.run_if(interaction::grabs_active),
-                        wind::apply_wind.run_if(wind::wind_blows),
-                    )
-                        .chain()
-                        .in_set(Forces),
-                    crease::update_creases
-                        .run_if(any_with_component::<crease::ClothCreases>)
-                        .in_set(Crease),
-                    collision::take_obstacles
-                        .run_if(collision::obstacles_in_use)
-                        .in_set(Integrate)
-                        .before(systems::step_cloths),
-                    systems::step_cloths.in_set(Integrate),
-                    (
-                        anchor::snap_anchors.run_if(any_with_component::<ClothAnchors>),
-                        interaction::snap_grabs.run_if(interaction::grabs_active),
-                        skin::limit_skins.run_if(any_with_component::<skin::ClothSkin>),
-                        tear::tear_cloths.run_if(tear::tearing_wanted),
-                        sew::sew_cloths.run_if(
-                            bevy::ecs::schedule::common_conditions::on_message::<sew::ClothSew>,
-                        ),
-                        systems::finish_step,
-                        schedule::consume_step.run_if(schedule::paused),
-                    )
-                        .chain()
-                        .in_set(Writeback),
-                ),
-            );
-        app.add_observer(anchor::stop_on_remove)
-            .add_observer(crease::remove_creases)
-            .register_type::<crease::ClothCreases>()
-            .register_type::<tether::ClothTethers>()
-            .register_type::<frame::ClothInertia>();
-        mesh::configure(app, fixed);
-        collision::configure(app, fixed);
-        diagnostics::configure(app, fixed);
-        #[cfg(feature = "picking")]
-        picking::configure(app);
-        #[cfg(feature = "render")]
-        if self.default_material {
-            app.add_systems(
-                bevy::app::PostUpdate,
-                render::attach_default_material.in_set(mesh::ClothMeshSystems::Attach),
-            );
-        }
-    }
-
-    fn finish(&self, app: &mut App) {
-        // Here rather than in `build`, so that the game's own
-        // `MeshPickingPlugin`, added before or after this one, is seen.
-        #[cfg(feature = "picking")]
-        picking::warn_without_backend(app);
-        #[cfg(not(feature = "picking"))]
-        let _ = app;
+impl PluginGroup for ClothPlugin {
+    fn build(self) -> PluginGroupBuilder {
+        PluginGroupBuilder::start::<Self>()
+            .add(group::ClothCorePlugin {
+                schedule: self.schedule,
+            })
+            .add(group::ClothRenderPlugin {
+                default_material: self.default_material,
+            })
+            .add(group::ClothInteractionPlugin)
+            .add(group::ClothCollisionPlugin)
+            .add(group::ClothWindPlugin)
+            .add(group::ClothCreasePlugin)
+            .add(group::ClothTearingPlugin)
+            .add(group::ClothWornPlugin)
+            .add(group::ClothLodPlugin)
+            .add(group::ClothDiagnosticsPlugin)
     }
 }
 
 #[cfg(feature = "render")]
-mod render {
+pub(crate) mod render {
     use bevy::asset::{Assets, Handle};
     use bevy::color::Color;
     use bevy::pbr::{MeshMaterial3d, StandardMaterial};

@@ -135,7 +135,7 @@ pub(crate) struct StepQuery {
     scratch: &'static mut ClothScratch,
     stats: &'static mut ClothStats,
     sleep: &'static mut ClothSleep,
-    detail: &'static ClothDetail,
+    detail: Option<&'static ClothDetail>,
     collision: Option<Ref<'static, ClothCollision>>,
     layers: Option<Ref<'static, ContactLayers>>,
     self_collision: Option<(
@@ -254,16 +254,20 @@ pub(crate) fn step_cloths(
     _main: crate::plugin::schedule::MainThread,
     time: Res<Time<Fixed>>,
     defaults: Res<ClothDefaults>,
-    scene: Res<ColliderScene>,
-    mut stats: ResMut<ClothCollisionStats>,
-    mut impulses: ResMut<ClothContactImpulses>,
+    scene: Option<Res<ColliderScene>>,
+    stats: Option<ResMut<ClothCollisionStats>>,
+    impulses: Option<ResMut<ClothContactImpulses>>,
     mut cloths: Query<StepQuery>,
     ticks: SystemChangeTick,
     mut pool: Local<Pool>,
     wind: Option<Res<ClothWind>>,
     mut blew: Local<bool>,
-    obstacles: Res<ClothObstacles>,
+    obstacles: Option<Res<ClothObstacles>>,
+    nothing: Local<(ColliderScene, ClothObstacles)>,
 ) {
+    // Without the collision plugin the step meets an empty scene.
+    let scene = scene.as_deref().unwrap_or(&nothing.0);
+    let obstacles = obstacles.as_deref().unwrap_or(&nothing.1);
     let pool = compute_pool(&mut pool);
     let now = ticks.this_run();
     let dt = time.timestep().as_secs_f32();
@@ -301,7 +305,7 @@ pub(crate) fn step_cloths(
         item.scratch.warned_invalid = false;
         // Level of detail: between its steps the cloth rides its pins; on
         // its step it takes the time of the fixed steps it combines.
-        let steps = item.detail.steps_now();
+        let steps = item.detail.map_or(1, ClothDetail::steps_now);
         if steps == 0 {
             let p = &item.particles;
             if let Some(carry) = pin_carry(&p.positions, &p.velocities, &p.inverse_masses, dt) {
@@ -357,7 +361,7 @@ pub(crate) fn step_cloths(
                 || everything
                 || item.disturbed()
                 || cloth_moving
-                || item.scratch.sleep.scene_changed(&scene, layers, tolerance))
+                || item.scratch.sleep.scene_changed(scene, layers, tolerance))
             {
                 return;
             }
@@ -412,14 +416,14 @@ pub(crate) fn step_cloths(
             .as_deref_mut()
             .filter(|c| !c.near.1.is_empty())
             .map(|scratch| ClothContacts {
-                obstacles: &obstacles,
+                obstacles,
                 scratch,
                 contacts: 0,
                 gravity: settings.gravity,
             });
         let contacts = !scratch.near.is_empty() || self_collision.is_some() || cloths.is_some();
         let mut hook = (contacts || tethers.is_some()).then(|| SceneContacts {
-            scene: &scene,
+            scene,
             near: &scratch.near,
             thickness,
             helper,
@@ -502,14 +506,19 @@ pub(crate) fn step_cloths(
             0
         };
     });
-    for (c, impulse) in feedback
+    let feedback = feedback
         .into_inner()
-        .unwrap_or_else(PoisonError::into_inner)
-    {
-        if let Some(collider) = scene.colliders.get(c) {
-            *impulses.map.entry(collider.entity).or_default() += impulse;
+        .unwrap_or_else(PoisonError::into_inner);
+    if let Some(mut impulses) = impulses {
+        for (c, impulse) in feedback {
+            if let Some(collider) = scene.colliders.get(c) {
+                *impulses.map.entry(collider.entity).or_default() += impulse;
+            }
         }
     }
+    let Some(mut stats) = stats else {
+        return;
+    };
     if !scene.colliders.is_empty() {
         stats.collider_passes += 1;
     }
@@ -538,7 +547,7 @@ pub(crate) struct WritebackQuery {
     stats: &'static mut ClothStats,
     scratch: &'static mut ClothScratch,
     sleep: &'static mut ClothSleep,
-    detail: &'static mut ClothDetail,
+    detail: Option<&'static mut ClothDetail>,
     grabs: Option<&'static ClothGrabs>,
     collision: Option<&'static ClothCollision>,
     layers: Option<&'static ContactLayers>,
@@ -558,8 +567,11 @@ pub(crate) fn finish_step(
     mut cloths: Query<WritebackQuery>,
     mut out: MessageWriter<ClothDiverged>,
     ticks: SystemChangeTick,
-    scene: Res<ColliderScene>,
+    scene: Option<Res<ColliderScene>>,
+    nothing: Local<ColliderScene>,
 ) {
+    // Without the collision plugin a cloth falls asleep in an empty scene.
+    let scene = scene.as_deref().unwrap_or(&nothing);
     let now = ticks.this_run();
     for item in &mut cloths {
         let WritebackQueryItem {
@@ -582,7 +594,9 @@ pub(crate) fn finish_step(
         if sleep.is_asleep() {
             continue;
         }
-        if detail.steps_now() == 0 {
+        if let Some(detail) = &detail
+            && detail.steps_now() == 0
+        {
             // Between the steps of a reduced cloth its forces add up for
             // its next one; a frozen cloth's are dropped.
             if detail.detail() == Detail::Frozen && forces.0.iter().any(|f| *f != Vec3::ZERO) {
@@ -604,7 +618,9 @@ pub(crate) fn finish_step(
             stats.finite = particles.is_finite();
             stats.max_speed = f32::NAN;
         }
-        detail.stepped(stats.max_strain);
+        if let Some(detail) = &mut detail {
+            detail.stepped(stats.max_strain);
+        }
         let grabbed = grabs.map_or(0.0, |g| {
             g.grabs()
                 .iter()
@@ -637,7 +653,7 @@ pub(crate) fn finish_step(
                 && around.1.is_finite()
                 && scratch
                     .sleep
-                    .fall_asleep(&scene, around, layers, particles.last_changed())
+                    .fall_asleep(scene, around, layers, particles.last_changed())
             {
                 sleep.set_asleep(true);
                 // It costs no step while it sleeps.

@@ -45,7 +45,7 @@ pub(crate) fn apply_wind(
         &ClothParticles,
         &mut ClothForces,
         &ClothSleep,
-        &ClothDetail,
+        Option<&ClothDetail>,
     )>,
 ) {
     let air = wind.at(time.elapsed_secs());
@@ -57,7 +57,7 @@ pub(crate) fn apply_wind(
     for (cloth, particles, mut forces, sleep, detail) in &mut cloths {
         // A reduced cloth feels the wind on the fixed steps it takes, over
         // the fixed steps it combines (their forces act as their mean).
-        let steps = detail.steps_now();
+        let steps = detail.map_or(1, ClothDetail::steps_now);
         if (sleep.is_asleep() && !changed) || steps == 0 {
             continue;
         }

@@ -39,6 +39,7 @@ mod mesh_crease;
 mod motion;
 mod picking;
 mod pins;
+mod plugins;
 #[cfg(feature = "rapier")]
 mod rapier;
 mod rim;
