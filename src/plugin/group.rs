@@ -23,8 +23,8 @@ use crate::plugin::components::{
 use crate::plugin::material::ClothMaterial;
 use crate::plugin::schedule::{self, ClothSystems};
 use crate::plugin::{
-    anchor, collision, crease, diagnostics, events, frame, interaction, lod, material, mesh, sew,
-    skin, sleep, systems, tear, tether, wind,
+    anchor, collision, crease, diagnostics, events, frame, integrate, interaction, lod, material,
+    mesh, sew, skin, sleep, systems, tear, tether, wind,
 };
 
 /// The members' places inside the public [`ClothSystems`] sets: each
@@ -137,7 +137,7 @@ impl Plugin for ClothCorePlugin {
                     material::apply_density
                         .run_if(material::materials_changed)
                         .in_set(Stage::Material),
-                    systems::step_cloths.in_set(Integrate),
+                    integrate::step_cloths.in_set(Integrate),
                     (
                         systems::finish_step,
                         schedule::consume_step.run_if(schedule::paused),
@@ -239,7 +239,7 @@ impl Plugin for ClothCollisionPlugin {
             collision::take_obstacles
                 .run_if(collision::obstacles_in_use)
                 .in_set(ClothSystems::Integrate)
-                .before(systems::step_cloths),
+                .before(integrate::step_cloths),
         );
     }
 }

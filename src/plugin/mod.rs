@@ -24,6 +24,7 @@ pub mod diagnostics;
 pub mod events;
 pub mod frame;
 mod group;
+pub(crate) mod integrate;
 pub mod interaction;
 pub mod lod;
 pub mod material;
@@ -36,6 +37,7 @@ pub mod panel;
 mod parry_shapes;
 #[cfg(feature = "picking")]
 pub mod picking;
+mod pool;
 pub mod pose;
 #[cfg(feature = "rapier")]
 pub mod rapier;

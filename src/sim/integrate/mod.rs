@@ -21,6 +21,7 @@
 
 mod explicit_euler;
 pub mod implicit;
+pub(crate) mod refine;
 mod rk4;
 mod symplectic_euler;
 
