@@ -23,7 +23,7 @@ use avian3d::prelude::*;
 use bevy::prelude::*;
 use bevy::time::TimeUpdateStrategy;
 use bevy::transform::TransformPlugin;
-use bevy_cloth::plugin::avian::ClothAvianPlugin;
+use bevy_cloth::plugin::bridges::avian::ClothAvianPlugin;
 use bevy_cloth::prelude::*;
 use race::{Runner, race, summary};
 

@@ -13,7 +13,7 @@ mod automation;
 use avian3d::prelude::*;
 use bevy::picking::mesh_picking::MeshPickingPlugin;
 use bevy::prelude::*;
-use bevy_cloth::plugin::avian::ClothAvianPlugin;
+use bevy_cloth::plugin::bridges::avian::ClothAvianPlugin;
 use bevy_cloth::prelude::*;
 use bevy_egui::EguiPlugin;
 use bevy_panorbit_camera::{PanOrbitCamera, PanOrbitCameraPlugin};

@@ -115,8 +115,6 @@ pub mod prelude {
         ContactLayers, MeshShape,
     };
     pub use crate::plugin::crease::ClothCreases;
-    #[cfg(feature = "debug")]
-    pub use crate::plugin::debug::{ClothDebug, ClothDebugPlugin};
     pub use crate::plugin::events::{
         ClothAtRest, ClothDiverged, ClothGrabbed, ClothReleased, ClothWoke,
     };
@@ -126,8 +124,6 @@ pub mod prelude {
     pub use crate::plugin::mesh::ClothMeshSettings;
     pub use crate::plugin::mesh_builder::{ATTRIBUTE_PIN, MeshClothBuilder};
     pub use crate::plugin::mesh_cloth::MeshLayout;
-    #[cfg(feature = "egui")]
-    pub use crate::plugin::panel::{ClothPanel, ClothPanelPlugin};
     #[cfg(feature = "picking")]
     pub use crate::plugin::picking::{ClothPicking, ClothPointer};
     pub use crate::plugin::schedule::ClothPause;
@@ -136,6 +132,10 @@ pub mod prelude {
     pub use crate::plugin::sleep::{ClothSleep, WakeCloth};
     pub use crate::plugin::tear::{ClothCut, ClothTearing, ClothTorn};
     pub use crate::plugin::tether::ClothTethers;
+    #[cfg(feature = "debug")]
+    pub use crate::plugin::tools::debug::{ClothDebug, ClothDebugPlugin};
+    #[cfg(feature = "egui")]
+    pub use crate::plugin::tools::panel::{ClothPanel, ClothPanelPlugin};
     pub use crate::plugin::wind::ClothWind;
     pub use crate::sim::collision::TriMesh;
     pub use crate::sim::crease::{Crease, FoldSide};

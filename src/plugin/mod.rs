@@ -10,16 +10,12 @@
 //! gathering poses and forces.
 
 pub mod anchor;
-#[cfg(feature = "avian")]
-pub mod avian;
 #[cfg(any(feature = "avian", feature = "rapier"))]
-mod body_motion;
+pub mod bridges;
 pub mod builder;
 pub mod collision;
 pub mod components;
 pub mod crease;
-#[cfg(feature = "debug")]
-pub mod debug;
 pub mod diagnostics;
 pub mod events;
 pub mod frame;
@@ -31,16 +27,10 @@ pub mod material;
 pub mod mesh;
 pub mod mesh_builder;
 pub mod mesh_cloth;
-#[cfg(feature = "egui")]
-pub mod panel;
-#[cfg(any(feature = "avian", feature = "rapier"))]
-mod parry_shapes;
 #[cfg(feature = "picking")]
 pub mod picking;
 mod pool;
 pub mod pose;
-#[cfg(feature = "rapier")]
-pub mod rapier;
 pub mod schedule;
 pub mod sew;
 pub mod skin;
@@ -48,6 +38,8 @@ pub mod sleep;
 pub mod systems;
 pub mod tear;
 pub mod tether;
+#[cfg(any(feature = "egui", feature = "debug"))]
+pub mod tools;
 pub mod wind;
 
 use bevy::app::{FixedUpdate, PluginGroup, PluginGroupBuilder};

@@ -11,7 +11,7 @@ use crate::sim::workers::{Pool, Workers};
 
 /// Bevy's compute task pool as the [`Workers`] a step spreads its force
 /// bands over: what the plugin passes to every step, and what a headless
-/// caller of [`step_guarded`] can give its buffers with
+/// caller of [`step_guarded`](crate::sim::guard::step_guarded) can give its buffers with
 /// [`StepBuffers::with_workers`](crate::sim::integrate::StepBuffers::with_workers).
 #[derive(Clone, Copy, Debug)]
 pub struct ComputePool(pub &'static ComputeTaskPool);

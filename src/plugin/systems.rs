@@ -1,6 +1,7 @@
-//! The writeback of the step: a cloth's scratch ([`ClothScratch`]), and
-//! [`finish_step`] (statistics, events, rest and sleep, divergence
-//! reports). The step itself is [`integrate`](crate::plugin::integrate).
+//! The writeback of the step: a cloth's scratch, a part per stage of the
+//! step, and `finish_step` (statistics, events, rest and sleep, divergence
+//! reports) in `ClothSystems::Writeback`. The step itself is the plugin's
+//! `integrate` module.
 
 use std::sync::atomic::{AtomicU64, Ordering};
 

@@ -5,7 +5,7 @@ use crate::common;
 
 use bevy::input::ButtonInput;
 use bevy::prelude::*;
-use bevy_cloth::plugin::debug::ClothDebugDrawn;
+use bevy_cloth::plugin::tools::debug::ClothDebugDrawn;
 use bevy_cloth::prelude::*;
 use common::app;
 

@@ -10,8 +10,8 @@ use std::f32::consts::FRAC_PI_2;
 use bevy::prelude::*;
 use bevy::time::TimeUpdateStrategy;
 use bevy::transform::TransformPlugin;
+use bevy_cloth::plugin::bridges::rapier::ClothRapierPlugin;
 use bevy_cloth::plugin::collision::{ClothContactImpulses, ColliderScene, ContactLayers};
-use bevy_cloth::plugin::rapier::ClothRapierPlugin;
 use bevy_cloth::prelude::*;
 use bevy_cloth::sim::material::Fabric;
 use bevy_rapier3d::prelude::*;
@@ -691,7 +691,7 @@ fn an_entity_with_both_engines_colliders_collides_once() {
     let mut app = app_with(|app| {
         app.add_plugins((
             avian3d::prelude::PhysicsPlugins::default(),
-            bevy_cloth::plugin::avian::ClothAvianPlugin::default(),
+            bevy_cloth::plugin::bridges::avian::ClothAvianPlugin::default(),
         ));
     });
     app.world_mut().spawn((

@@ -57,12 +57,12 @@ use bevy::prelude::*;
 use bevy::time::Fixed;
 
 use crate::plugin::ClothSchedule;
-use crate::plugin::body_motion::Motion;
+use crate::plugin::bridges::body_motion::Motion;
+use crate::plugin::bridges::parry_shapes::{self as shapes, Piece};
 use crate::plugin::collision::{
     ClothCollider, ClothColliderSources, ClothContactImpulses, ColliderScene, ContactLayers,
     SceneCollider,
 };
-use crate::plugin::parry_shapes::{self as shapes, Piece};
 use crate::plugin::schedule::ClothSystems;
 
 /// avian's colliders as cloth colliders, and the cloth's impulses on
@@ -72,7 +72,7 @@ use crate::plugin::schedule::ClothSystems;
 /// # use bevy::prelude::*;
 /// # use bevy_cloth::prelude::*;
 /// use avian3d::prelude::*;
-/// use bevy_cloth::plugin::avian::ClothAvianPlugin;
+/// use bevy_cloth::plugin::bridges::avian::ClothAvianPlugin;
 ///
 /// App::new()
 ///     .add_plugins((DefaultPlugins, PhysicsPlugins::default()))

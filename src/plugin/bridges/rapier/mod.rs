@@ -59,12 +59,12 @@ use bevy_rapier3d::rapier::dynamics::{CoefficientCombineRule, RigidBody};
 use bevy_rapier3d::rapier::geometry::Collider;
 
 use crate::plugin::ClothSchedule;
-use crate::plugin::body_motion::Motion;
+use crate::plugin::bridges::body_motion::Motion;
+use crate::plugin::bridges::parry_shapes::{self as shapes, Piece};
 use crate::plugin::collision::{
     ClothCollider, ClothColliderSources, ClothContactImpulses, ColliderScene, ContactLayers,
     SceneCollider,
 };
-use crate::plugin::parry_shapes::{self as shapes, Piece};
 use crate::plugin::schedule::{ClothSystems, MainThread};
 
 /// rapier's colliders as cloth colliders, and the cloth's impulses on
@@ -74,7 +74,7 @@ use crate::plugin::schedule::{ClothSystems, MainThread};
 /// # use bevy::prelude::*;
 /// # use bevy_cloth::prelude::*;
 /// use bevy_rapier3d::prelude::*;
-/// use bevy_cloth::plugin::rapier::ClothRapierPlugin;
+/// use bevy_cloth::plugin::bridges::rapier::ClothRapierPlugin;
 ///
 /// App::new()
 ///     .add_plugins((DefaultPlugins, RapierPhysicsPlugin::<NoUserData>::default()))
