@@ -45,7 +45,7 @@ use crate::plugin::crease::ClothCreaseRecord;
 use crate::plugin::material::ClothMaterial;
 use crate::plugin::mesh::ClothPrevious;
 use crate::plugin::skin::ClothSkin;
-use crate::sim::connections::Link;
+use crate::sim::connections::{Connections, Link};
 use crate::sim::settings::ClothModel;
 use crate::sim::tear::{self, Adjacency, Blade, TearOutcome};
 
@@ -282,8 +282,7 @@ pub(crate) fn tear_cloths(
     let defaults = defaults.as_deref().unwrap_or(&fallback);
     for mut item in &mut cloths {
         let entity = item.entity;
-        let x = &item.particles.positions;
-        if x.len() != item.cloth.len()
+        if item.particles.positions.len() != item.cloth.len()
             || crate::plugin::components::check_cloth(&item.particles, &item.connections).is_err()
             || !item.particles.is_finite()
         {
@@ -292,125 +291,167 @@ pub(crate) fn tear_cloths(
         let mut broken: Vec<(u32, u32)> = Vec::new();
         // A sleeping cloth has not moved since it was checked.
         if let Some(tearing) = item.tearing.filter(|_| !item.sleep.is_asleep()) {
-            if let Err(error) = tearing.validate() {
-                if !warned.contains(&entity) {
+            match tearing.validate() {
+                Err(error) if !warned.contains(&entity) => {
                     warned.push(entity);
                     warn!("cloth {entity} does not tear: {error}");
                 }
-            } else {
-                let material = item.material.copied().unwrap_or_default();
-                let base = item.settings.map_or(&defaults.0, |s| &s.0);
-                let settings = material.settings(base, item.cloth.spacing());
-                let (k_axial, k_diagonal) = match settings.model {
-                    ClothModel::ChoiKo => {
-                        (settings.choi_ko.stiffness, settings.choi_ko.shear_stiffness)
-                    }
-                    ClothModel::Lander => (
-                        settings.lander.structural.stiffness,
-                        settings.lander.shear.stiffness,
-                    ),
-                };
-                let strain_limit = tearing.strain.unwrap_or(
-                    material
-                        .fabric()
-                        .map_or(DEFAULT_TEAR_STRAIN, |f| f.tear_strain),
-                );
-                let force_limit = tearing.force.unwrap_or(f32::INFINITY);
-                let mut over: Vec<(f32, (u32, u32))> = Vec::new();
-                for (links, k) in [
-                    (&item.connections.structural, k_axial),
-                    (&item.connections.shear, k_diagonal),
-                ] {
-                    for l in links.iter().filter(|l| l.rest_length > 0.0) {
-                        let (force, strain) = load(l, x, k);
-                        if strain > strain_limit || force > force_limit {
-                            over.push((strain, (l.a.min(l.b), l.a.max(l.b))));
-                        }
-                    }
-                }
-                over.sort_by(|p, q| q.0.total_cmp(&p.0));
-                over.truncate(tearing.max_per_step as usize);
-                broken.extend(over.into_iter().map(|(_, pair)| pair));
+                Err(_) => {}
+                Ok(()) => broken = overloaded(&item, tearing, defaults),
             }
         }
-        let mut blades: Vec<Blade> = cuts
-            .iter()
-            .filter(|c| c.cloth.is_none_or(|e| e == entity))
-            .flat_map(|c| c.blades.iter().copied())
-            .collect();
+        let blades = blades_for(&cuts, entity, &item.particles.positions);
         // What game code names by index: links that are Type 1 links, and
         // particles to split.
         let mine = || cuts.iter().filter(|c| c.cloth == Some(entity));
-        let mut asked: Vec<(u32, u32)> = mine()
-            .flat_map(|c| c.links.iter().map(|&(a, b)| (a.min(b), a.max(b))))
-            .collect();
-        if !asked.is_empty() {
-            asked.sort_unstable();
-            asked.dedup();
-            let mut found: Vec<(u32, u32)> = item
-                .connections
-                .type1()
-                .map(|l| (l.a.min(l.b), l.a.max(l.b)))
-                .filter(|pair| asked.binary_search(pair).is_ok())
-                .collect();
-            found.sort_unstable();
-            found.dedup();
-            found.retain(|pair| !broken.contains(pair));
-            broken.extend(found);
-        }
+        let asked = asked_links(&item.connections, mine(), &broken);
+        broken.extend(asked);
         let splits: Vec<(u32, Vec3)> = mine().flat_map(|c| c.splits.iter().copied()).collect();
-        if !blades.is_empty() {
-            // A cut that misses the cloth's box costs it nothing more.
-            let (lo, hi) = x
-                .iter()
-                .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), p| {
-                    (lo.min(*p), hi.max(*p))
-                });
-            blades.retain(|blade| {
-                let [a, b, c] = blade.0;
-                a.min(b).min(c).cmple(hi).all() && a.max(b).max(c).cmpge(lo).all()
-            });
-        }
         if broken.is_empty() && blades.is_empty() && splits.is_empty() {
             continue;
         }
-        let layout = item.cloth.layout().clone();
-        let mut topology = layout.topology().clone();
-        let adjacency = Adjacency::new(&topology);
-        let mut plan = tear::break_links(x, &broken);
-        plan.extend(tear::split_particles(x, &splits));
-        let (cut, crossed) = tear::cut(&topology, x, &blades);
-        plan.extend(cut);
-        let outcome = tear::apply(&mut topology, &adjacency, x, &plan);
-        if outcome.is_empty() {
-            continue;
+        if let Some(torn) = tear_one(&mut item, broken, &blades, &splits) {
+            commands.trigger(torn);
         }
-        // The layout still holds the topology before the tear.
-        let origins = outcome.origins(topology.len());
-        let rule_after = topology.connections();
-        let links = tear::rebuild(
-            &item.connections,
-            layout.rule_links(),
-            &rule_after,
-            &origins,
-        );
-        if let Some(record) = item.creases.as_mut() {
-            record.record.remap(&item.connections, &links, &origins);
+    }
+}
+
+/// The links of a tearing cloth past its strain or force threshold this
+/// step, the most strained first, at most `tearing.max_per_step`.
+fn overloaded(
+    item: &TearQueryItem,
+    tearing: &ClothTearing,
+    defaults: &ClothDefaults,
+) -> Vec<(u32, u32)> {
+    let material = item.material.copied().unwrap_or_default();
+    let base = item.settings.map_or(&defaults.0, |s| &s.0);
+    let settings = material.settings(base, item.cloth.spacing());
+    let (k_axial, k_diagonal) = match settings.model {
+        ClothModel::ChoiKo => (settings.choi_ko.stiffness, settings.choi_ko.shear_stiffness),
+        ClothModel::Lander => (
+            settings.lander.structural.stiffness,
+            settings.lander.shear.stiffness,
+        ),
+    };
+    let strain_limit = tearing.strain.unwrap_or(
+        material
+            .fabric()
+            .map_or(DEFAULT_TEAR_STRAIN, |f| f.tear_strain),
+    );
+    let force_limit = tearing.force.unwrap_or(f32::INFINITY);
+    let x = &item.particles.positions;
+    let mut over: Vec<(f32, (u32, u32))> = Vec::new();
+    for (links, k) in [
+        (&item.connections.structural, k_axial),
+        (&item.connections.shear, k_diagonal),
+    ] {
+        for l in links.iter().filter(|l| l.rest_length > 0.0) {
+            let (force, strain) = load(l, x, k);
+            if strain > strain_limit || force > force_limit {
+                over.push((strain, (l.a.min(l.b), l.a.max(l.b))));
+            }
         }
-        split_state(&mut item, &outcome);
-        item.connections.0 = links;
-        let torn = layout.torn(topology);
-        torn.keep_rule_links(rule_after);
-        item.cloth.set_layout(torn);
-        broken.extend(crossed);
-        broken.sort_unstable();
-        broken.dedup();
-        commands.trigger(ClothTorn {
-            entity,
-            links: broken,
-            split: outcome.copies.iter().map(|&(c, o, _)| (o, c)).collect(),
+    }
+    over.sort_by(|p, q| q.0.total_cmp(&p.0));
+    over.truncate(tearing.max_per_step as usize);
+    over.into_iter().map(|(_, pair)| pair).collect()
+}
+
+/// The blades of `cuts` meant for `entity` (or for every cloth) that reach
+/// the box of its positions `x` (m): a cut that misses it costs it nothing
+/// more.
+fn blades_for(cuts: &[ClothCut], entity: Entity, x: &[Vec3]) -> Vec<Blade> {
+    let mut blades: Vec<Blade> = cuts
+        .iter()
+        .filter(|c| c.cloth.is_none_or(|e| e == entity))
+        .flat_map(|c| c.blades.iter().copied())
+        .collect();
+    if !blades.is_empty() {
+        let (lo, hi) = x
+            .iter()
+            .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), p| {
+                (lo.min(*p), hi.max(*p))
+            });
+        blades.retain(|blade| {
+            let [a, b, c] = blade.0;
+            a.min(b).min(c).cmple(hi).all() && a.max(b).max(c).cmpge(lo).all()
         });
     }
+    blades
+}
+
+/// The links the cloth's own `cuts` name by index that are Type 1 links of
+/// `connections` and not already in `broken`, each once.
+fn asked_links<'a>(
+    connections: &Connections,
+    cuts: impl Iterator<Item = &'a ClothCut>,
+    broken: &[(u32, u32)],
+) -> Vec<(u32, u32)> {
+    let mut asked: Vec<(u32, u32)> = cuts
+        .flat_map(|c| c.links.iter().map(|&(a, b)| (a.min(b), a.max(b))))
+        .collect();
+    if asked.is_empty() {
+        return asked;
+    }
+    asked.sort_unstable();
+    asked.dedup();
+    let mut found: Vec<(u32, u32)> = connections
+        .type1()
+        .map(|l| (l.a.min(l.b), l.a.max(l.b)))
+        .filter(|pair| asked.binary_search(pair).is_ok())
+        .collect();
+    found.sort_unstable();
+    found.dedup();
+    found.retain(|pair| !broken.contains(pair));
+    found
+}
+
+/// Breaks the `broken` links of one cloth, splits its `splits` particles
+/// and cuts it along `blades`: its topology, links, per-particle state and
+/// crease record follow. What tore, if anything did.
+fn tear_one(
+    item: &mut TearQueryItem,
+    mut broken: Vec<(u32, u32)>,
+    blades: &[Blade],
+    splits: &[(u32, Vec3)],
+) -> Option<ClothTorn> {
+    let x = &item.particles.positions;
+    let layout = item.cloth.layout().clone();
+    let mut topology = layout.topology().clone();
+    let adjacency = Adjacency::new(&topology);
+    let mut plan = tear::break_links(x, &broken);
+    plan.extend(tear::split_particles(x, splits));
+    let (cut, crossed) = tear::cut(&topology, x, blades);
+    plan.extend(cut);
+    let outcome = tear::apply(&mut topology, &adjacency, x, &plan);
+    if outcome.is_empty() {
+        return None;
+    }
+    // The layout still holds the topology before the tear.
+    let origins = outcome.origins(topology.len());
+    let rule_after = topology.connections();
+    let links = tear::rebuild(
+        &item.connections,
+        layout.rule_links(),
+        &rule_after,
+        &origins,
+    );
+    if let Some(record) = item.creases.as_mut() {
+        record.record.remap(&item.connections, &links, &origins);
+    }
+    split_state(item, &outcome);
+    item.connections.0 = links;
+    let torn = layout.torn(topology);
+    torn.keep_rule_links(rule_after);
+    item.cloth.set_layout(torn);
+    broken.extend(crossed);
+    broken.sort_unstable();
+    broken.dedup();
+    Some(ClothTorn {
+        entity: item.entity,
+        links: broken,
+        split: outcome.copies.iter().map(|&(c, o, _)| (o, c)).collect(),
+    })
 }
 
 /// Gives every per-particle array of the cloth its copies (in order).
