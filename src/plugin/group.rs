@@ -10,7 +10,7 @@
 //!
 //! What it may import: anything of Bevy and of the rest of the plugin layer.
 
-use bevy::app::{App, FixedUpdate, Plugin, PostUpdate};
+use bevy::app::{App, FixedUpdate, Plugin};
 use bevy::ecs::intern::Interned;
 use bevy::ecs::schedule::common_conditions::{any_with_component, on_message};
 use bevy::ecs::schedule::{IntoScheduleConfigs, ScheduleLabel, SystemSet};
@@ -175,13 +175,13 @@ impl Plugin for ClothRenderPlugin {
         #[cfg(feature = "render")]
         if self.default_material {
             app.add_systems(
-                PostUpdate,
+                bevy::app::PostUpdate,
                 crate::plugin::render::attach_default_material
                     .in_set(mesh::ClothMeshSystems::Attach),
             );
         }
         #[cfg(not(feature = "render"))]
-        let _ = (self.default_material, PostUpdate);
+        let _ = self.default_material;
     }
 }
 
