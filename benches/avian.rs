@@ -57,7 +57,7 @@ impl Scene {
         // Timed stepping: a cloth that comes to rest keeps stepping.
         let mut settings = SimSettings::default();
         settings.sleep.enabled = false;
-        app.insert_resource(ClothDefaults(settings));
+        app.insert_resource(ClothSettingsDefaults(settings));
         if bridge {
             app.add_plugins(ClothAvianPlugin::default());
         }

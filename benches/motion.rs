@@ -52,7 +52,7 @@ fn run(cloth: impl Bundle, wind: Option<Wind>) -> Run {
     app.update();
     let cap = app
         .world()
-        .resource::<ClothDefaults>()
+        .resource::<ClothSettingsDefaults>()
         .0
         .implicit
         .max_iterations;

@@ -14,12 +14,12 @@ use bevy::tasks::{ComputeTaskPool, TaskPool};
 use bevy::time::TimeUpdateStrategy;
 use bevy::transform::TransformPlugin;
 use bevy_cloth::lab::accuracy::scene;
-use bevy_cloth::plugin::systems::ComputePool;
+use bevy_cloth::plugin::ComputePool;
 use bevy_cloth::prelude::*;
 use bevy_cloth::sim::integrate::StepBuffers;
-use bevy_cloth::sim::model::bands::internal_forces_banded;
-use bevy_cloth::sim::model::streams::ForceStreams;
-use bevy_cloth::sim::model::{internal_forces, internal_forces_streamed};
+use bevy_cloth::sim::model::{
+    ForceStreams, internal_forces, internal_forces_banded, internal_forces_streamed,
+};
 use bevy_cloth::sim::particles::Particles;
 use bevy_cloth::sim::step::step_cloth;
 use bevy_cloth::sim::topology::{MeshTopology, disc};
@@ -315,7 +315,7 @@ fn mesh_collider(c: &mut Criterion) {
         app.add_plugins((MinimalPlugins, TransformPlugin, ClothPlugin::default()))
             .insert_resource(Time::<Fixed>::from_hz(60.0))
             .insert_resource(TimeUpdateStrategy::FixedTimesteps(1))
-            .insert_resource(ClothDefaults(
+            .insert_resource(ClothSettingsDefaults(
                 SimSettings::default().with_integrator(Integrator::Bdf2, 1),
             ));
         app.world_mut()

@@ -170,7 +170,7 @@ fn main() {
         let (t, t_lo, t_hi) = summary(&mut times[1]);
         let (p, p_lo, p_hi) = summary(&mut times[2]);
         let (c, c_lo, c_hi) = summary(&mut cuts);
-        let cap = ImplicitParams::default().max_iterations;
+        let cap = ImplicitSettings::default().max_iterations;
         let mean = torn.fall.iter().sum::<u32>() as f64 / torn.fall.len() as f64;
         let most = torn.fall.iter().max().copied().unwrap_or(0);
         let capped = torn.fall.iter().filter(|&&k| k >= cap).count();

@@ -99,7 +99,7 @@ fn setup(
 
 fn keys(
     input: Res<ButtonInput<KeyCode>>,
-    mut defaults: ResMut<ClothDefaults>,
+    mut defaults: ResMut<ClothSettingsDefaults>,
     mut cloths: Query<(&mut ClothParticles, &mut ClothConnections), With<Cloth>>,
 ) {
     if input.just_pressed(KeyCode::KeyR) {

@@ -50,7 +50,7 @@
 //!   hold contiguous arrays; [`ClothMaterial`] sets the fabric.
 //! - [`ClothSettings`] picks the model ([`ClothModel`]), the integrator
 //!   ([`Integrator`]) and the solver's constants: the global
-//!   [`ClothDefaults`] resource, overridden per cloth by a `ClothSettings`
+//!   [`ClothSettingsDefaults`] resource, overridden per cloth by a `ClothSettings`
 //!   component.
 //! - [`ClothPlugin`] is a plugin group with a member per concern (the step,
 //!   the mesh, grabs, collision, wind, creases, tearing, worn cloth, level
@@ -95,7 +95,8 @@ pub use crate::plugin::anchor::{Anchor, ClothAnchors};
 pub use crate::plugin::builder::{ClothBuilder, ClothBundle};
 pub use crate::plugin::components::check_cloth;
 pub use crate::plugin::components::{
-    Cloth, ClothConnections, ClothDefaults, ClothForces, ClothParticles, ClothSettings, ClothStats,
+    Cloth, ClothConnections, ClothForces, ClothParticles, ClothSettings, ClothSettingsDefaults,
+    ClothStats,
 };
 pub use crate::plugin::material::ClothMaterial;
 pub use crate::plugin::schedule::ClothSystems;
@@ -104,15 +105,15 @@ pub use crate::sim::grid::{GridCorner, GridEdge};
 pub use crate::sim::material::Fabric;
 pub use crate::sim::particles::PinOwner;
 pub use crate::sim::settings::{
-    ChoiKoParams, ClothModel, ImplicitParams, Integrator, LanderParams, Parallelism, SimSettings,
-    SlackStiffness, SleepSettings, SpringParams, Type2Jacobian,
+    ChoiKoSettings, ClothModel, ImplicitSettings, Integrator, LanderSettings, Parallelism,
+    SimSettings, SlackStiffness, SleepSettings, SpringSettings, Type2Jacobian,
 };
 
 /// Every type a game names: `use bevy_cloth::prelude::*;`.
 pub mod prelude {
     pub use crate::plugin::collision::{
-        ClothCollider, ClothCollision, ClothSelfCollision, ClothToClothCollision, ColliderShape,
-        ContactLayers, MeshShape,
+        ClothCollider, ClothCollision, ClothContactLayers, ClothSelfCollision,
+        ClothToClothCollision, ColliderShape, MeshShape,
     };
     pub use crate::plugin::crease::ClothCreases;
     pub use crate::plugin::events::{
@@ -145,10 +146,10 @@ pub mod prelude {
     pub use crate::sim::settings::{AdaptiveSubsteps, Fallback, GuardSettings};
     pub use crate::sim::wind::Wind;
     pub use crate::{
-        Anchor, Cloth, ClothAnchors, ClothBuilder, ClothBundle, ClothConnections, ClothDefaults,
-        ClothError, ClothForces, ClothMaterial, ClothModel, ClothParticles, ClothPlugin,
-        ClothSettings, ClothStats, ClothSystems, Fabric, GridCorner, GridEdge, ImplicitParams,
-        Integrator, SimSettings, SleepSettings,
+        Anchor, Cloth, ClothAnchors, ClothBuilder, ClothBundle, ClothConnections, ClothError,
+        ClothForces, ClothMaterial, ClothModel, ClothParticles, ClothPlugin, ClothSettings,
+        ClothSettingsDefaults, ClothStats, ClothSystems, Fabric, GridCorner, GridEdge,
+        ImplicitSettings, Integrator, SimSettings, SleepSettings,
     };
 }
 

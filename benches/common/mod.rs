@@ -19,6 +19,6 @@ pub fn headless(settings: ClothSettings) -> App {
     .init_asset::<Mesh>()
     .insert_resource(Time::<Fixed>::from_hz(60.0))
     .insert_resource(TimeUpdateStrategy::FixedTimesteps(1))
-    .insert_resource(ClothDefaults(settings.0));
+    .insert_resource(ClothSettingsDefaults(settings.0));
     app
 }

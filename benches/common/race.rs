@@ -58,7 +58,7 @@ impl Ours {
         app.add_plugins((MinimalPlugins, ClothPlugin::default()))
             .insert_resource(Time::<Fixed>::from_hz(60.0))
             .insert_resource(TimeUpdateStrategy::FixedTimesteps(1))
-            .insert_resource(ClothDefaults(settings));
+            .insert_resource(ClothSettingsDefaults(settings));
         let cloth = ClothBuilder::new(n as u32, n as u32)
             .size(1.0, 1.0)
             .position(Vec3::new(0.0, 1.5, 0.0))

@@ -18,7 +18,7 @@ use bevy::input::mouse::MouseButtonInput;
 use bevy::prelude::*;
 use bevy::render::view::screenshot::{Screenshot, ScreenshotCaptured, save_to_disk};
 use bevy::window::{CursorMoved, PrimaryWindow, WindowEvent};
-use bevy_cloth::plugin::picking::PointerGrabs;
+use bevy_cloth::plugin::picking::ClothPointerGrabs;
 use bevy_cloth::plugin::tools::panel::ClothPanel;
 
 /// Reads the command line and plays its script.
@@ -229,7 +229,7 @@ fn scripted_drag(
 
 /// Logs once when the pointer first holds a particle (the rendering check
 /// looks for this line).
-fn report_grab(held: Res<PointerGrabs>, mut said: Local<bool>) {
+fn report_grab(held: Res<ClothPointerGrabs>, mut said: Local<bool>) {
     if !*said && let Some((_, grab)) = held.iter().next() {
         info!(
             "pointer holds particle {} of cloth {}",

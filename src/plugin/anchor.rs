@@ -38,7 +38,7 @@ pub struct Anchor {
 /// stops (velocity 0) where another owner (the builder, a grab, the game)
 /// still pins it. A particle whose target disappears stops, still pinned.
 ///
-/// Targets are read as [`pose`](crate::plugin::pose) explains: a root entity's own
+/// Targets are read where the cloth systems see them: a root entity's own
 /// `Transform` (current even when moved in `FixedUpdate`), a child's
 /// `GlobalTransform`.
 ///

@@ -21,28 +21,102 @@ pub(crate) enum Mass {
     Total(f32),
 }
 
-/// The checks both builders make of what they share: the material, the
-/// mass (the material's density unless given; finite and positive) and the
-/// placement (finite, a rotation of non-zero length). Returns the mass and
-/// the normalised rotation.
-pub(crate) fn check_common(
-    material: &ClothMaterial,
-    mass: Option<Mass>,
-    position: Vec3,
-    rotation: Quat,
-) -> Result<(Mass, Quat), ClothError> {
-    material.validate()?;
-    let mass = mass.unwrap_or(Mass::PerArea(material.fabric().map_or(0.15, |f| f.density)));
-    let (Mass::PerArea(m) | Mass::Total(m)) = mass;
-    if !(m.is_finite() && m > 0.0) {
-        return Err(ClothError::InvalidMass(m));
-    }
-    let length = rotation.length();
-    if !(position.is_finite() && rotation.is_finite() && length > 1e-6) {
-        return Err(ClothError::InvalidPlacement);
-    }
-    Ok((mass, rotation / length))
+/// What both builders share: the material, the mass and the placement.
+#[derive(Clone, Debug)]
+pub(crate) struct Common {
+    pub(crate) material: ClothMaterial,
+    pub(crate) mass: Option<Mass>,
+    pub(crate) uniform_mass: bool,
+    pub(crate) position: Vec3,
+    pub(crate) rotation: Quat,
 }
+
+impl Default for Common {
+    fn default() -> Self {
+        Self {
+            material: ClothMaterial::COTTON,
+            mass: None,
+            uniform_mass: false,
+            position: Vec3::ZERO,
+            rotation: Quat::IDENTITY,
+        }
+    }
+}
+
+impl Common {
+    /// The checks both builders make of what they share: the material, the
+    /// mass (the material's density unless given; finite and positive) and
+    /// the placement (finite, a rotation of non-zero length). Returns the
+    /// mass and the normalised rotation.
+    pub(crate) fn check(&self) -> Result<(Mass, Quat), ClothError> {
+        self.material.validate()?;
+        let fabric_density = self.material.fabric().map_or(0.15, |f| f.density);
+        let mass = self.mass.unwrap_or(Mass::PerArea(fabric_density));
+        let (Mass::PerArea(m) | Mass::Total(m)) = mass;
+        if !(m.is_finite() && m > 0.0) {
+            return Err(ClothError::InvalidMass(m));
+        }
+        let length = self.rotation.length();
+        if !(self.position.is_finite() && self.rotation.is_finite() && length > 1e-6) {
+            return Err(ClothError::InvalidPlacement);
+        }
+        Ok((mass, self.rotation / length))
+    }
+
+    /// The shared fields, for a builder's `Debug`.
+    pub(crate) fn debug_fields(&self, d: &mut std::fmt::DebugStruct<'_, '_>) {
+        d.field("material", &self.material)
+            .field("mass", &self.mass)
+            .field("uniform_mass", &self.uniform_mass)
+            .field("position", &self.position)
+            .field("rotation", &self.rotation);
+    }
+}
+
+/// The setters of [`Common`], one definition for both builders; `$origin`
+/// names the point [`position`](ClothBuilder::position) places.
+macro_rules! common_setters {
+    ($origin:literal) => {
+        /// What the cloth is made of ([`ClothMaterial`]); its density gives
+        /// the masses unless [`mass_per_area`](Self::mass_per_area) or
+        /// [`total_mass`](Self::total_mass) says otherwise.
+        pub fn material(mut self, material: ClothMaterial) -> Self {
+            self.common.material = material;
+            self
+        }
+
+        /// Areal density in kg/m² (instead of the material's).
+        pub fn mass_per_area(mut self, kg_per_m2: f32) -> Self {
+            self.common.mass = Some(Mass::PerArea(kg_per_m2));
+            self
+        }
+
+        /// Total mass in kg (instead of the material's density).
+        pub fn total_mass(mut self, kg: f32) -> Self {
+            self.common.mass = Some(Mass::Total(kg));
+            self
+        }
+
+        /// Gives every particle the same mass instead of lumping it by area.
+        pub fn uniform_mass(mut self) -> Self {
+            self.common.uniform_mass = true;
+            self
+        }
+
+        #[doc = concat!("World position (m) of ", $origin, ".")]
+        pub fn position(mut self, position: Vec3) -> Self {
+            self.common.position = position;
+            self
+        }
+
+        /// World orientation of the cloth (normalised when built).
+        pub fn rotation(mut self, rotation: Quat) -> Self {
+            self.common.rotation = rotation;
+            self
+        }
+    };
+}
+pub(crate) use common_setters;
 
 /// A pin request, resolved when the grid is known.
 enum Pin {
@@ -93,27 +167,18 @@ pub struct ClothBuilder {
     cols: u32,
     rows: u32,
     size: Vec2,
-    mass: Option<Mass>,
-    material: ClothMaterial,
-    uniform_mass: bool,
-    position: Vec3,
-    rotation: Quat,
+    common: Common,
     pins: Vec<Pin>,
 }
 
 impl std::fmt::Debug for ClothBuilder {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("ClothBuilder")
-            .field("cols", &self.cols)
+        let mut d = f.debug_struct("ClothBuilder");
+        d.field("cols", &self.cols)
             .field("rows", &self.rows)
-            .field("size", &self.size)
-            .field("mass", &self.mass)
-            .field("material", &self.material)
-            .field("uniform_mass", &self.uniform_mass)
-            .field("position", &self.position)
-            .field("rotation", &self.rotation)
-            .field("pins", &self.pins.len())
-            .finish()
+            .field("size", &self.size);
+        self.common.debug_fields(&mut d);
+        d.field("pins", &self.pins.len()).finish()
     }
 }
 
@@ -124,11 +189,7 @@ impl ClothBuilder {
             cols,
             rows,
             size: Vec2::ONE,
-            mass: None,
-            material: ClothMaterial::COTTON,
-            uniform_mass: false,
-            position: Vec3::ZERO,
-            rotation: Quat::IDENTITY,
+            common: Common::default(),
             pins: Vec::new(),
         }
     }
@@ -139,43 +200,7 @@ impl ClothBuilder {
         self
     }
 
-    /// What the cloth is made of ([`ClothMaterial`]); its density gives
-    /// the masses unless [`mass_per_area`](Self::mass_per_area) or
-    /// [`total_mass`](Self::total_mass) says otherwise.
-    pub fn material(mut self, material: ClothMaterial) -> Self {
-        self.material = material;
-        self
-    }
-
-    /// Areal density in kg/m² (instead of the material's).
-    pub fn mass_per_area(mut self, kg_per_m2: f32) -> Self {
-        self.mass = Some(Mass::PerArea(kg_per_m2));
-        self
-    }
-
-    /// Total mass in kg (instead of the material's density).
-    pub fn total_mass(mut self, kg: f32) -> Self {
-        self.mass = Some(Mass::Total(kg));
-        self
-    }
-
-    /// Gives every particle the same mass instead of lumping it by area.
-    pub fn uniform_mass(mut self) -> Self {
-        self.uniform_mass = true;
-        self
-    }
-
-    /// World position of the grid's centre in m.
-    pub fn position(mut self, position: Vec3) -> Self {
-        self.position = position;
-        self
-    }
-
-    /// World orientation of the grid (normalised when built).
-    pub fn rotation(mut self, rotation: Quat) -> Self {
-        self.rotation = rotation;
-        self
-    }
+    common_setters!("the grid's centre");
 
     /// Pins particle `index` (`p = row·cols + column`).
     pub fn pin(mut self, index: u32) -> Self {
@@ -225,8 +250,7 @@ impl ClothBuilder {
                 height: size.y,
             });
         }
-        let (mass, rotation) =
-            check_common(&self.material, self.mass, self.position, self.rotation)?;
+        let (mass, rotation) = self.common.check()?;
         let (Mass::PerArea(m) | Mass::Total(m)) = mass;
 
         let grid = Grid { cols, rows, size };
@@ -237,7 +261,7 @@ impl ClothBuilder {
         };
         let masses: Vec<f32> = (0..count as u32)
             .map(|p| {
-                if self.uniform_mass {
+                if self.common.uniform_mass {
                     return total / count as f32;
                 }
                 let w = |k: u32, n: u32| if k == 0 || k == n - 1 { 0.5 } else { 1.0 };
@@ -251,7 +275,7 @@ impl ClothBuilder {
         let positions: Vec<Vec3> = (0..count as u32)
             .map(|p| {
                 let uv = grid.rest_uv(p) - 0.5 * size;
-                self.position + rotation * Vec3::new(uv.x, 0.0, uv.y)
+                self.common.position + rotation * Vec3::new(uv.x, 0.0, uv.y)
             })
             .collect();
         let connections = ClothConnections::grid(cols, rows, &positions);
@@ -265,7 +289,7 @@ impl ClothBuilder {
             cloth: Cloth::from(grid),
             particles,
             connections,
-            material: self.material,
+            material: self.common.material,
         })
     }
 

@@ -222,7 +222,7 @@ impl ClothConnections {
 }
 
 /// How one cloth is simulated: on a cloth entity, overrides
-/// [`ClothDefaults`]. Dereferences to its [`SimSettings`].
+/// [`ClothSettingsDefaults`]. Dereferences to its [`SimSettings`].
 ///
 /// ```
 /// # use bevy::prelude::*;
@@ -270,7 +270,7 @@ impl From<SimSettings> for ClothSettings {
 /// The settings of every cloth that has no [`ClothSettings`] of its own.
 #[derive(Resource, Clone, Debug, Default, PartialEq, Reflect, Deref, DerefMut)]
 #[reflect(Resource, Default)]
-pub struct ClothDefaults(pub SimSettings);
+pub struct ClothSettingsDefaults(pub SimSettings);
 
 /// External forces on each particle in N, held constant through one fixed
 /// step and cleared after it.

@@ -41,7 +41,7 @@ use bevy::platform::time::Instant;
 use bevy::prelude::{Entity, Local, Name, Query, Res, ResMut};
 
 use crate::plugin::components::ClothStats;
-use crate::plugin::components::{ClothDefaults, ClothSettings};
+use crate::plugin::components::{ClothSettings, ClothSettingsDefaults};
 use crate::plugin::schedule::ClothSystems;
 use crate::sim::settings::Integrator;
 
@@ -162,7 +162,7 @@ fn record_named(
 fn record(
     _main: crate::plugin::schedule::MainThread,
     mut diagnostics: Diagnostics,
-    defaults: Res<ClothDefaults>,
+    defaults: Res<ClothSettingsDefaults>,
     cloths: Query<(&ClothStats, Option<&ClothSettings>)>,
 ) {
     if cloths.is_empty() {

@@ -28,8 +28,8 @@ use bevy::prelude::{Entity, EntityEvent, Message, Reflect};
 
 use crate::sim::guard::Divergence;
 use crate::sim::settings::Integrator;
-
-pub use crate::sim::sleep::{REST_SPEED, REST_STEPS, WAKE_SPEED};
+#[cfg(doc)]
+use crate::sim::sleep::{REST_SPEED, REST_STEPS, WAKE_SPEED};
 
 /// A grab took hold of a particle (the fixed step it first acts).
 #[derive(EntityEvent, Clone, Copy, Debug, PartialEq, Reflect)]

@@ -1,6 +1,6 @@
 //! Cloth on a moving character or vehicle: [`ClothInertia`] (how much of
 //! its frame's motion the cloth feels) and [`TeleportCloth`] (move the
-//! whole cloth with its frame). [`crate::sim::frame`] holds the geometry.
+//! whole cloth with its frame).
 
 use bevy::ecs::system::EntityCommand;
 use bevy::math::Isometry3d;
@@ -19,12 +19,12 @@ use crate::sim::frame::{Carry, InertiaScale, teleport};
 /// The frame a cloth moves with (a character's body, a cart) and how much
 /// of that frame's motion the cloth feels, as NvCloth's and Chaos's
 /// inertia scales: before each step the free particles are carried by the
-/// unfelt share of the frame's motion since the last step
-/// ([`sim::frame`](crate::sim::frame)). At 1 (and without this component)
+/// unfelt share of the frame's motion since the last step. At 1 (and without this component)
 /// the cloth feels all of it; lower scales keep a cape on a running,
 /// spinning or jumping character from streaming out behind it.
 ///
-/// The frame is read as anchors' targets are ([`pose`](crate::plugin::pose)).
+/// The frame is read as anchors' targets are (a root entity's own
+/// `Transform`, a child's `GlobalTransform`).
 /// Use [`TeleportCloth`] to move a character and its cloth somewhere else.
 /// The frame's own anchors and a [`ClothSkin`]'s kinematic particles are
 /// carried with the free particles. A collider that moves with the frame
@@ -42,7 +42,7 @@ use crate::sim::frame::{Carry, InertiaScale, teleport};
 /// ```
 #[derive(Component, Clone, Debug, PartialEq, Reflect)]
 #[reflect(Component)]
-#[require(FramePose)]
+#[require(ClothFramePose)]
 pub struct ClothInertia {
     /// The entity whose motion is the frame's.
     pub frame: Entity,
@@ -66,12 +66,12 @@ impl ClothInertia {
 
 /// The frame's pose at the last step (m, rad), for [`ClothInertia`].
 #[derive(Component, Clone, Copy, Debug, Default, PartialEq)]
-pub struct FramePose(pub Option<Isometry3d>);
+pub struct ClothFramePose(pub Option<Isometry3d>);
 
 /// What carrying a cloth with its frame reads and writes.
 type CarryQuery = (
     &'static ClothInertia,
-    &'static mut FramePose,
+    &'static mut ClothFramePose,
     &'static mut ClothParticles,
     &'static mut ClothScratch,
     Option<&'static ClothAnchors>,
@@ -165,7 +165,7 @@ impl EntityCommand for TeleportCloth {
                 .implicit
                 .carry_history(&Carry::rigid(by), |_| true);
         }
-        if let Some(mut last) = entity.get_mut::<FramePose>()
+        if let Some(mut last) = entity.get_mut::<ClothFramePose>()
             && let Some(pose) = last.0
         {
             last.0 = Some(by * pose);

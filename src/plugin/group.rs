@@ -18,7 +18,8 @@ use bevy::ecs::schedule::{IntoScheduleConfigs, ScheduleLabel, SystemSet};
 use crate::plugin::ClothSchedule;
 use crate::plugin::anchor::ClothAnchors;
 use crate::plugin::components::{
-    Cloth, ClothConnections, ClothDefaults, ClothForces, ClothParticles, ClothSettings, ClothStats,
+    Cloth, ClothConnections, ClothForces, ClothParticles, ClothSettings, ClothSettingsDefaults,
+    ClothStats,
 };
 use crate::plugin::material::ClothMaterial;
 use crate::plugin::schedule::{self, ClothSystems};
@@ -61,7 +62,7 @@ fn fixed(app: &App) -> Interned<dyn ScheduleLabel> {
         .map_or(FixedUpdate.intern(), |s| s.0)
 }
 
-/// The step: [`ClothDefaults`], the components of a cloth entity, the
+/// The step: [`ClothSettingsDefaults`], the components of a cloth entity, the
 /// chained [`ClothSystems`] sets in the fixed schedule, the integration of
 /// every cloth, the writeback (statistics, rest and sleep, divergence
 /// reports), and [`ClothPause`](schedule::ClothPause).
@@ -84,8 +85,8 @@ impl Plugin for ClothCorePlugin {
         use ClothSystems::*;
         let fixed = self.schedule;
         app.insert_resource(ClothSchedule(fixed))
-            .init_resource::<ClothDefaults>()
-            .register_type::<ClothDefaults>()
+            .init_resource::<ClothSettingsDefaults>()
+            .register_type::<ClothSettingsDefaults>()
             .register_type::<ClothSettings>()
             .register_type::<Cloth>()
             .register_required_components::<Cloth, bevy::transform::components::Transform>()

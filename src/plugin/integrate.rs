@@ -32,13 +32,13 @@ use bevy::tasks::ComputeTaskPool;
 use bevy::time::Fixed;
 
 use crate::plugin::collision::{
-    ClothCollision, ClothCollisionStats, ClothContactImpulses, ClothContacts, ClothObstacles,
-    ClothSelfCollision, ClothToClothScratch, ColliderScene, ContactImpulse, ContactLayers,
-    SceneContacts, SelfCollisionScratch, bounds,
+    ClothColliderScene, ClothCollision, ClothCollisionStats, ClothContactImpulses,
+    ClothContactLayers, ClothContacts, ClothObstacles, ClothSelfCollision, ClothToClothScratch,
+    ContactImpulse, SceneContacts, SelfCollisionScratch, bounds,
 };
 use crate::plugin::components::{
-    Cloth, ClothConnections, ClothDefaults, ClothForces, ClothParticles, ClothSettings, ClothStats,
-    check_indices,
+    Cloth, ClothConnections, ClothForces, ClothParticles, ClothSettings, ClothSettingsDefaults,
+    ClothStats, check_indices,
 };
 use crate::plugin::lod::ClothDetail;
 use crate::plugin::material::ClothMaterial;
@@ -70,7 +70,7 @@ pub(crate) struct StepQuery {
     sleep: &'static mut ClothSleep,
     detail: Option<&'static ClothDetail>,
     collision: Option<Ref<'static, ClothCollision>>,
-    layers: Option<Ref<'static, ContactLayers>>,
+    layers: Option<Ref<'static, ClothContactLayers>>,
     self_collision: Option<(
         Ref<'static, ClothSelfCollision>,
         &'static mut SelfCollisionScratch,
@@ -189,7 +189,7 @@ struct Shared<'a> {
     /// The global defaults.
     defaults: &'a SimSettings,
     /// The colliders of this fixed step (empty without collision).
-    scene: &'a ColliderScene,
+    scene: &'a ClothColliderScene,
     /// The colliding cloths of this fixed step.
     obstacles: &'a ClothObstacles,
     /// The workers a step spreads its force bands over.
@@ -240,8 +240,8 @@ impl Reach {
 pub(crate) fn step_cloths(
     _main: crate::plugin::schedule::MainThread,
     time: Res<Time<Fixed>>,
-    defaults: Res<ClothDefaults>,
-    scene: Option<Res<ColliderScene>>,
+    defaults: Res<ClothSettingsDefaults>,
+    scene: Option<Res<ClothColliderScene>>,
     stats: Option<ResMut<ClothCollisionStats>>,
     impulses: Option<ResMut<ClothContactImpulses>>,
     mut cloths: Query<StepQuery>,
@@ -250,7 +250,7 @@ pub(crate) fn step_cloths(
     wind: Option<Res<ClothWind>>,
     mut blew: Local<bool>,
     obstacles: Option<Res<ClothObstacles>>,
-    nothing: Local<(ColliderScene, ClothObstacles)>,
+    nothing: Local<(ClothColliderScene, ClothObstacles)>,
 ) {
     // What wakes every sleeping cloth: new defaults, the wind stopping (its
     // start and change reach them as forces).
@@ -449,7 +449,7 @@ fn stays_asleep(
 /// Stage 4: the scene's colliders the cloth may reach this step (its box
 /// grown by its contact thickness and its reach, on its layers), into its
 /// scratch; the contact thickness, m.
-fn near_colliders(item: &mut StepQueryItem, scene: &ColliderScene, reach: &mut Reach) -> f32 {
+fn near_colliders(item: &mut StepQueryItem, scene: &ClothColliderScene, reach: &mut Reach) -> f32 {
     let thickness = item
         .collision
         .as_ref()

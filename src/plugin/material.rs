@@ -33,7 +33,7 @@ pub enum ClothMaterial {
     /// Physical properties; the constants follow from them and the spacing.
     Fabric(Fabric),
     /// The per-link constants and damping of the cloth's [`SimSettings`]
-    /// (or [`ClothDefaults`](crate::ClothDefaults)), as given: for
+    /// (or [`ClothSettingsDefaults`](crate::ClothSettingsDefaults)), as given: for
     /// reproducing a paper's constants or tuning by hand.
     Raw,
 }

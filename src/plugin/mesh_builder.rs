@@ -5,7 +5,7 @@ use bevy::math::{Quat, Vec3};
 use bevy::mesh::{Mesh, MeshVertexAttribute, VertexFormat};
 
 use crate::error::ClothError;
-use crate::plugin::builder::{ClothBuilder, ClothBundle, Mass, check_common};
+use crate::plugin::builder::{ClothBuilder, ClothBundle, Common, Mass, common_setters};
 use crate::plugin::components::{Cloth, ClothConnections, ClothParticles, ClothSettings};
 use crate::plugin::material::ClothMaterial;
 use crate::plugin::mesh_cloth::{MeshLayout, float_attribute, marked_particles, painted_particles};
@@ -46,11 +46,7 @@ impl ClothBuilder {
     pub fn from_mesh(mesh: &Mesh) -> MeshClothBuilder {
         MeshClothBuilder {
             mesh: mesh.clone(),
-            mass: None,
-            material: ClothMaterial::COTTON,
-            uniform_mass: false,
-            position: Vec3::ZERO,
-            rotation: Quat::IDENTITY,
+            common: Common::default(),
             pins: Vec::new(),
         }
     }
@@ -67,64 +63,21 @@ impl ClothBuilder {
 /// corners).
 pub struct MeshClothBuilder {
     mesh: Mesh,
-    mass: Option<Mass>,
-    material: ClothMaterial,
-    uniform_mass: bool,
-    position: Vec3,
-    rotation: Quat,
+    common: Common,
     pins: Vec<Pin>,
 }
 
 impl std::fmt::Debug for MeshClothBuilder {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("MeshClothBuilder")
-            .field("vertices", &self.mesh.count_vertices())
-            .field("mass", &self.mass)
-            .field("material", &self.material)
-            .field("uniform_mass", &self.uniform_mass)
-            .field("position", &self.position)
-            .field("rotation", &self.rotation)
-            .field("pins", &self.pins.len())
-            .finish()
+        let mut d = f.debug_struct("MeshClothBuilder");
+        d.field("vertices", &self.mesh.count_vertices());
+        self.common.debug_fields(&mut d);
+        d.field("pins", &self.pins.len()).finish()
     }
 }
 
 impl MeshClothBuilder {
-    /// What the cloth is made of ([`ClothMaterial`]).
-    pub fn material(mut self, material: ClothMaterial) -> Self {
-        self.material = material;
-        self
-    }
-
-    /// Areal density in kg/m² (instead of the material's).
-    pub fn mass_per_area(mut self, kg_per_m2: f32) -> Self {
-        self.mass = Some(Mass::PerArea(kg_per_m2));
-        self
-    }
-
-    /// Total mass in kg (instead of the material's density).
-    pub fn total_mass(mut self, kg: f32) -> Self {
-        self.mass = Some(Mass::Total(kg));
-        self
-    }
-
-    /// Gives every particle the same mass instead of lumping it by area.
-    pub fn uniform_mass(mut self) -> Self {
-        self.uniform_mass = true;
-        self
-    }
-
-    /// World position (m) of the mesh's origin.
-    pub fn position(mut self, position: Vec3) -> Self {
-        self.position = position;
-        self
-    }
-
-    /// World orientation of the mesh (normalised when built).
-    pub fn rotation(mut self, rotation: Quat) -> Self {
-        self.rotation = rotation;
-        self
-    }
+    common_setters!("the mesh's origin");
 
     /// Pins the particle of the mesh's vertex `vertex`.
     pub fn pin_vertex(mut self, vertex: u32) -> Self {
@@ -166,8 +119,7 @@ impl MeshClothBuilder {
     /// has no colours or attribute for ([`ClothError::UnsupportedMesh`]),
     /// and an invalid material, mass or placement.
     pub fn build(self) -> Result<ClothBundle, ClothError> {
-        let (mass, rotation) =
-            check_common(&self.material, self.mass, self.position, self.rotation)?;
+        let (mass, rotation) = self.common.check()?;
         let (Mass::PerArea(m) | Mass::Total(m)) = mass;
         let shape = MeshLayout::from_mesh(&self.mesh)?;
         let topology = shape.topology();
@@ -181,7 +133,7 @@ impl MeshClothBuilder {
                 masses
             }
         };
-        if self.uniform_mass {
+        if self.common.uniform_mass {
             let total: f32 = masses.iter().sum();
             masses.fill(total / count as f32);
         }
@@ -191,7 +143,7 @@ impl MeshClothBuilder {
         let positions: Vec<Vec3> = topology
             .positions
             .iter()
-            .map(|&p| self.position + rotation * p)
+            .map(|&p| self.common.position + rotation * p)
             .collect();
         let connections = ClothConnections(topology.connections());
         let mut particles = ClothParticles::new(positions, masses);
@@ -204,7 +156,7 @@ impl MeshClothBuilder {
             cloth: Cloth::from(shape),
             particles,
             connections,
-            material: self.material,
+            material: self.common.material,
         })
     }
 

@@ -148,7 +148,7 @@ impl MeshLayout {
 
     /// This layout after a tear that left `topology`: the same triangles
     /// (in the same order), some of whose corners are now copies of their
-    /// particles ([`tear`](crate::sim::tear)). A rendered vertex whose
+    /// particles (`tear`). A rendered vertex whose
     /// triangles now reach two particles is duplicated, its UV kept, so each
     /// side of the tear renders on its own.
     pub fn torn(&self, topology: MeshTopology) -> Self {
@@ -195,11 +195,11 @@ impl MeshLayout {
         Self::from_parts(topology, vertex_particles, Some(kept_uvs), indices)
     }
 
-    /// This layout after the seam `seam` ([`sew`](crate::sim::sew)) that
+    /// This layout after the seam `seam` (`sew`) that
     /// left `topology`: every rendered vertex shows the particle its own
     /// joined, UVs kept (a seam stays a UV seam), and a rendered triangle
     /// left with a repeated particle is dropped.
-    pub fn sewn(&self, topology: MeshTopology, seam: &crate::sim::sew::Seam) -> Self {
+    pub(crate) fn sewn(&self, topology: MeshTopology, seam: &crate::sim::sew::Seam) -> Self {
         let at = |p: u32| seam.map.get(p as usize).copied().unwrap_or(p);
         let vertex_particles: Vec<u32> = self.vertex_particles().iter().map(|&p| at(p)).collect();
         let indices = self

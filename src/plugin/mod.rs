@@ -30,12 +30,12 @@ pub mod mesh_cloth;
 #[cfg(feature = "picking")]
 pub mod picking;
 mod pool;
-pub mod pose;
+pub(crate) mod pose;
 pub mod schedule;
 pub mod sew;
 pub mod skin;
 pub mod sleep;
-pub mod systems;
+pub(crate) mod systems;
 pub mod tear;
 pub mod tether;
 #[cfg(any(feature = "egui", feature = "debug"))]
@@ -52,8 +52,9 @@ pub use group::{
     ClothInteractionPlugin, ClothLodPlugin, ClothRenderPlugin, ClothTearingPlugin, ClothWindPlugin,
     ClothWornPlugin,
 };
+pub use pool::ComputePool;
 
-/// Adds cloth simulation: the [`ClothDefaults`](components::ClothDefaults)
+/// Adds cloth simulation: the [`ClothSettingsDefaults`](components::ClothSettingsDefaults)
 /// resource, the [`ClothSystems`](schedule::ClothSystems) sets in
 /// `FixedUpdate` (or the schedule given to [`ClothPlugin::new`]) and the mesh
 /// sync in `PostUpdate`.
@@ -100,7 +101,8 @@ pub use group::{
 /// that follows. Both run before `PostUpdate`'s transform propagation, so
 /// colliders read their pose from avian's `Position`/`Rotation` or, for the
 /// crate's own [`ClothCollider`](collision::ClothCollider)s, from
-/// `Transform`s as [`pose`] explains. Run the cloth in another fixed
+/// `Transform`s (a root entity's own, current even when moved in
+/// `FixedUpdate`). Run the cloth in another fixed
 /// schedule (`ClothPlugin::new(FixedPostUpdate)`, ordered against
 /// `PhysicsSystems` there) only when avian itself runs elsewhere; the
 /// schedule must run inside the fixed main loop, as the step reads

@@ -77,9 +77,9 @@ pub struct PointerGrab {
 
 /// The grab each pointer holds.
 #[derive(Resource, Clone, Debug, Default)]
-pub struct PointerGrabs(HashMap<PointerId, PointerGrab>);
+pub struct ClothPointerGrabs(HashMap<PointerId, PointerGrab>);
 
-impl PointerGrabs {
+impl ClothPointerGrabs {
     /// Follows a seam of `cloth` ([`ClothSew`](crate::plugin::sew::ClothSew)):
     /// each held particle of it becomes `map[particle]`.
     pub(crate) fn remap(&mut self, cloth: Entity, map: &[u32]) {
@@ -128,7 +128,7 @@ impl PointerGrabs {
 #[derive(SystemParam)]
 pub struct ClothPointer<'w, 's> {
     hovers: Option<Res<'w, HoverMap>>,
-    held: Res<'w, PointerGrabs>,
+    held: Res<'w, ClothPointerGrabs>,
     cloths: Query<'w, 's, (), With<crate::plugin::components::Cloth>>,
     #[cfg(feature = "egui")]
     egui: Option<Res<'w, bevy_egui::input::EguiWantsInput>>,
@@ -182,7 +182,7 @@ pub(crate) fn warn_without_backend(app: &App) {
 
 pub(crate) fn configure(app: &mut App) {
     app.init_resource::<ClothPicking>()
-        .init_resource::<PointerGrabs>()
+        .init_resource::<ClothPointerGrabs>()
         .register_type::<ClothPicking>()
         .add_observer(press)
         .add_observer(drag)
@@ -193,7 +193,7 @@ pub(crate) fn configure(app: &mut App) {
 fn press(
     event: On<PointerPress>,
     settings: Res<ClothPicking>,
-    mut held: ResMut<PointerGrabs>,
+    mut held: ResMut<ClothPointerGrabs>,
     mut cloths: Query<(&Cloth, &mut ClothParticles, &mut ClothGrabs)>,
 ) {
     let cloth = event.entity;
@@ -237,7 +237,7 @@ fn press(
 fn drag(
     event: On<PointerDrag>,
     rays: Res<RayMap>,
-    held: Res<PointerGrabs>,
+    held: Res<ClothPointerGrabs>,
     mut cloths: Query<&mut ClothGrabs>,
 ) {
     let Some(&PointerGrab {
@@ -258,20 +258,32 @@ fn drag(
 }
 
 /// A press and release on the cloth without dragging.
-fn release(event: On<PointerRelease>, held: ResMut<PointerGrabs>, cloths: Query<&mut ClothGrabs>) {
+fn release(
+    event: On<PointerRelease>,
+    held: ResMut<ClothPointerGrabs>,
+    cloths: Query<&mut ClothGrabs>,
+) {
     if event.button == PointerButton::Primary {
         let_go(event.pointer.id, held, cloths);
     }
 }
 
 /// The end of a drag (sent to the dragged cloth wherever the pointer is).
-fn drag_end(event: On<PointerDragEnd>, held: ResMut<PointerGrabs>, cloths: Query<&mut ClothGrabs>) {
+fn drag_end(
+    event: On<PointerDragEnd>,
+    held: ResMut<ClothPointerGrabs>,
+    cloths: Query<&mut ClothGrabs>,
+) {
     if event.button == PointerButton::Primary {
         let_go(event.pointer.id, held, cloths);
     }
 }
 
-fn let_go(pointer: PointerId, mut held: ResMut<PointerGrabs>, mut cloths: Query<&mut ClothGrabs>) {
+fn let_go(
+    pointer: PointerId,
+    mut held: ResMut<ClothPointerGrabs>,
+    mut cloths: Query<&mut ClothGrabs>,
+) {
     if let Some(PointerGrab {
         cloth, particle, ..
     }) = held.0.remove(&pointer)
@@ -297,7 +309,7 @@ mod tests {
             camera: Entity::PLACEHOLDER,
             depth: 1.0,
         };
-        let mut held = PointerGrabs::default();
+        let mut held = ClothPointerGrabs::default();
         held.0.insert(PointerId::Mouse, grab(cloth, 4));
         held.0.insert(PointerId::Touch(1), grab(other, 4));
         held.remap(cloth, &[0, 1, 2, 1, 3]);

@@ -1,5 +1,5 @@
 //! Sewing in an app: [`ClothSew`] joins particle pairs of a cloth into one
-//! ([`sim::sew`](crate::sim::sew)), between fixed steps like a tear, and
+//! between fixed steps like a tear, and
 //! [`ClothSewn`] tells the game the particles' new indices.
 //!
 //! A seam is an edit of the cloth's topology: the particles of each pair
@@ -85,7 +85,7 @@ pub(crate) fn sew_cloths(
     mut commands: Commands,
     mut sews: MessageReader<ClothSew>,
     #[cfg(feature = "picking")] mut pointers: Option<
-        bevy::prelude::ResMut<crate::plugin::picking::PointerGrabs>,
+        bevy::prelude::ResMut<crate::plugin::picking::ClothPointerGrabs>,
     >,
     mut cloths: Query<SewQuery>,
 ) {

@@ -1,6 +1,6 @@
 //! [`ClothSkin`]: a mesh cloth worn on an animated skeleton. Each particle's
 //! animated position comes from the skeleton's joints on the CPU, at the
-//! fixed step ([`crate::sim::skin`]); particles painted 0 follow it
+//! fixed step (`crate::sim::skin`); particles painted 0 follow it
 //! exactly, particles painted 1 are simulated, and those in between are
 //! simulated within a maximum distance of it, scaled by their paint.
 
@@ -17,7 +17,8 @@ use crate::plugin::mesh_cloth::{MeshLayout, float_attribute};
 use crate::plugin::sleep::ClothSleep;
 use crate::plugin::tether::ClothTethers;
 use crate::sim::particles::PinOwner;
-use crate::sim::skin::{Backstop, Influence, limit_distance, push_out_of_capsule, skin};
+pub use crate::sim::skin::{Backstop, Influence};
+use crate::sim::skin::{limit_distance, push_out_of_capsule, skin};
 
 /// A `Float32` vertex attribute named `"Cloth_Freedom"` for
 /// [`ClothSkin::from_mesh`]: 0 follows the animation, 1 is simulated
@@ -50,7 +51,7 @@ pub const ATTRIBUTE_FREEDOM: MeshVertexAttribute = MeshVertexAttribute::new(
 /// Worn cloth has tethers to its kinematic particles by default (a
 /// [`ClothTethers`] is added with the skin unless the entity has one).
 #[derive(Component, Clone, Debug, PartialEq)]
-#[require(SkinTargets, ClothTethers)]
+#[require(ClothSkinTargets, ClothTethers)]
 pub struct ClothSkin {
     /// The skeleton's joint entities (a `SkinnedMesh`'s `joints`).
     pub joints: Vec<Entity>,
@@ -202,7 +203,7 @@ impl ClothSkin {
 /// This step's animated positions (m) and their velocities (m/s) of a
 /// [`ClothSkin`]'s particles.
 #[derive(Component, Clone, Debug, Default, PartialEq)]
-pub struct SkinTargets {
+pub struct ClothSkinTargets {
     /// Animated positions, m.
     pub positions: Vec<Vec3>,
     /// Their velocities over the last step, m/s.
@@ -244,7 +245,7 @@ pub(crate) fn follow_skins(
     transforms: Query<(&Transform, Option<&ChildOf>)>,
     mut cloths: Query<(
         &ClothSkin,
-        &mut SkinTargets,
+        &mut ClothSkinTargets,
         &mut ClothParticles,
         &ClothSleep,
     )>,
@@ -323,7 +324,12 @@ pub(crate) fn follow_skins(
 pub(crate) fn limit_skins(
     _main: crate::plugin::schedule::MainThread,
     time: Res<Time<Fixed>>,
-    mut cloths: Query<(&ClothSkin, &SkinTargets, &mut ClothParticles, &ClothSleep)>,
+    mut cloths: Query<(
+        &ClothSkin,
+        &ClothSkinTargets,
+        &mut ClothParticles,
+        &ClothSleep,
+    )>,
     mut limits: bevy::prelude::Local<Vec<f32>>,
 ) {
     for (skin_of, targets, mut particles, _) in cloths.iter_mut().filter(|c| !c.3.is_asleep()) {

@@ -16,7 +16,7 @@
 //!   [`ClothInertia`](crate::plugin::frame::ClothInertia) frame moves;
 //! - anything writes its particles (a pin, picking, [`TeleportCloth`](crate::plugin::frame::TeleportCloth),
 //!   game code), its connections (creases), its material or settings, the
-//!   global `ClothDefaults`, its collision settings or tethers;
+//!   global `ClothSettingsDefaults`, its collision settings or tethers;
 //! - a force is written into its [`ClothForces`](crate::ClothForces);
 //! - game code queues [`WakeCloth`].
 //!

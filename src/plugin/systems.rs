@@ -15,16 +15,14 @@ use bevy::prelude::{
 };
 
 use crate::plugin::collision::{
-    ClothCollision, ColliderScene, ContactLayers, Feedback, SleepWatch, bounds,
+    ClothColliderScene, ClothCollision, ClothContactLayers, Feedback, SleepWatch, bounds,
 };
-pub use crate::plugin::components::check_cloth;
 use crate::plugin::components::{
     ClothConnections, ClothForces, ClothParticles, ClothStats, check_indices,
 };
 use crate::plugin::events::ClothDiverged;
 use crate::plugin::interaction::ClothGrabs;
 use crate::plugin::lod::ClothDetail;
-pub use crate::plugin::pool::ComputePool;
 use crate::plugin::sleep::{Change, ClothSleep};
 use crate::sim::lod::Detail;
 use crate::sim::sleep::{RestChange, RestTracker};
@@ -148,7 +146,7 @@ pub(crate) struct WritebackQuery {
     detail: Option<&'static mut ClothDetail>,
     grabs: Option<&'static ClothGrabs>,
     collision: Option<&'static ClothCollision>,
-    layers: Option<&'static ContactLayers>,
+    layers: Option<&'static ClothContactLayers>,
 }
 
 /// [`ClothSystems::Writeback`](crate::plugin::schedule::ClothSystems::Writeback):
@@ -165,8 +163,8 @@ pub(crate) fn finish_step(
     mut cloths: Query<WritebackQuery>,
     mut out: MessageWriter<ClothDiverged>,
     ticks: SystemChangeTick,
-    scene: Option<Res<ColliderScene>>,
-    nothing: Local<ColliderScene>,
+    scene: Option<Res<ClothColliderScene>>,
+    nothing: Local<ClothColliderScene>,
 ) {
     // Without the collision plugin a cloth falls asleep in an empty scene.
     let scene = scene.as_deref().unwrap_or(&nothing);

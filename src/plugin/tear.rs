@@ -4,7 +4,7 @@
 //! After each fixed step ([`ClothSystems::Writeback`](crate::ClothSystems::Writeback)),
 //! a cloth with [`ClothTearing`] breaks its most strained Type 1 links past
 //! the threshold, and every cloth a [`ClothCut`] crosses is cut. How a
-//! cloth opens is [`sim::tear`](crate::sim::tear)'s: particles split along
+//! cloth opens: particles split along
 //! the triangles' edges, so the pieces stay one entity, each side of a tear
 //! with its own particles, links and rendered vertices (UVs kept). A piece
 //! that falls away keeps stepping as part of the same cloth.
@@ -13,7 +13,7 @@
 //! its first tear, with the same particles and links (its force loop then runs link
 //! by link, its coarse correction by aggregation). On every tear:
 //!
-//! - the links are rebuilt ([`sim::tear::rebuild`](crate::sim::tear::rebuild)):
+//! - the links are rebuilt:
 //!   rest lengths carry over, nothing links or bends across the tear, and a
 //!   crease across it ends there. The crease record follows the links
 //!   ([`CreaseRecord::remap`](crate::sim::crease::CreaseRecord::remap)), so
@@ -39,7 +39,7 @@ use bevy::shape::Ray3d;
 
 use crate::error::ClothError;
 use crate::plugin::anchor::ClothAnchors;
-use crate::plugin::components::{Cloth, ClothConnections, ClothDefaults, ClothForces};
+use crate::plugin::components::{Cloth, ClothConnections, ClothForces, ClothSettingsDefaults};
 use crate::plugin::components::{ClothParticles, ClothSettings};
 use crate::plugin::crease::ClothCreaseRecord;
 use crate::plugin::material::ClothMaterial;
@@ -47,7 +47,8 @@ use crate::plugin::mesh::ClothPrevious;
 use crate::plugin::skin::ClothSkin;
 use crate::sim::connections::{Connections, Link};
 use crate::sim::settings::ClothModel;
-use crate::sim::tear::{self, Adjacency, Blade, TearOutcome};
+pub use crate::sim::tear::Blade;
+use crate::sim::tear::{self, Adjacency, TearOutcome};
 
 /// The strain (dimensionless) at which a cloth with a raw material
 /// ([`ClothMaterial::Raw`]) tears unless its [`ClothTearing`] sets one:
@@ -122,7 +123,7 @@ impl ClothTearing {
 }
 
 /// Cuts cloths along a blade: every mesh edge that crosses it opens, at
-/// the end nearer the blade ([`sim::tear`](crate::sim::tear)). Write it as a
+/// the end nearer the blade. Write it as a
 /// message (`MessageWriter<ClothCut>`); it acts after the next fixed step.
 ///
 /// ```
@@ -145,14 +146,13 @@ pub struct ClothCut {
     pub blades: Vec<Blade>,
     /// Type 1 links to break, as particle pairs of [`cloth`](Self::cloth)
     /// (ignored without one): each opens the cloth across it at one end,
-    /// as a tear there would ([`sim::tear::break_links`](crate::sim::tear::break_links)).
+    /// as a tear there would.
     /// A pair that is not a link, or out of range, is skipped.
     pub links: Vec<(u32, u32)>,
     /// Particles of [`cloth`](Self::cloth) to split (ignored without one),
     /// each by the plane through it with the given normal (world space, any
     /// length): its triangles on the normal's side keep it, the others get
-    /// a copy, and the cloth opens between them
-    /// ([`sim::tear::split_particles`](crate::sim::tear::split_particles)).
+    /// a copy, and the cloth opens between them.
     /// A particle out of range or a zero or non-finite normal is skipped.
     pub splits: Vec<(u32, Vec3)>,
 }
@@ -273,12 +273,12 @@ pub(crate) fn tear_cloths(
     _main: crate::plugin::schedule::MainThread,
     mut commands: Commands,
     mut cuts: MessageReader<ClothCut>,
-    defaults: Option<Res<ClothDefaults>>,
+    defaults: Option<Res<ClothSettingsDefaults>>,
     mut warned: Local<Vec<Entity>>,
     mut cloths: Query<TearQuery>,
 ) {
     let cuts: Vec<ClothCut> = cuts.read().cloned().collect();
-    let fallback = ClothDefaults::default();
+    let fallback = ClothSettingsDefaults::default();
     let defaults = defaults.as_deref().unwrap_or(&fallback);
     for mut item in &mut cloths {
         let entity = item.entity;
@@ -321,7 +321,7 @@ pub(crate) fn tear_cloths(
 fn overloaded(
     item: &TearQueryItem,
     tearing: &ClothTearing,
-    defaults: &ClothDefaults,
+    defaults: &ClothSettingsDefaults,
 ) -> Vec<(u32, u32)> {
     let material = item.material.copied().unwrap_or_default();
     let base = item.settings.map_or(&defaults.0, |s| &s.0);

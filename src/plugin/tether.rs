@@ -42,4 +42,4 @@ impl Default for ClothTethers {
 /// Each particle's nearest pin and rest distance to it, for
 /// [`ClothTethers`].
 #[derive(Component, Clone, Debug, Default)]
-pub struct TetherScratch(pub Tethers);
+pub(crate) struct TetherScratch(pub(crate) Tethers);

@@ -192,7 +192,7 @@ pub fn stiffest_mode(
 
 /// The largest stable step (s) of `integrator` for a mode (module docs);
 /// `None` if the integrator has no bound or the mode does not constrain it.
-pub fn stable_step(integrator: Integrator, mode: StiffestMode) -> Option<f32> {
+pub(crate) fn stable_step(integrator: Integrator, mode: StiffestMode) -> Option<f32> {
     let (w, c) = (mode.omega, mode.damping);
     if w.is_nan() || w <= 0.0 || !w.is_finite() || !c.is_finite() {
         return None;
@@ -235,7 +235,7 @@ impl AdaptiveSubsteps {
 
 /// The substeps a cloth runs for a step of `dt` seconds: `settings.substeps`,
 /// raised by [`AdaptiveSubsteps`] when enabled for an explicit integrator.
-pub fn substeps_for(
+pub(crate) fn substeps_for(
     settings: &SimSettings,
     connections: &Connections,
     particles: &Particles,

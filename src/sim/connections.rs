@@ -66,7 +66,7 @@ pub struct Connections {
     pub fold: Vec<FoldTriple>,
     /// Particles per grid row, set by [`Connections::grid`] (0 for
     /// hand-made connections). The parallel force bands
-    /// ([`model::bands`](crate::sim::model::bands)) need it; they also need each
+    /// (`model::bands`) need it; they also need each
     /// grid family sorted by `a`, as `grid` builds them.
     pub columns: u32,
 }
@@ -134,7 +134,7 @@ pub struct FoldTriple {
 /// hinge's signed height `σ = (x_b − ½(x_a + x_c))·n_b` is below `σ_min` on
 /// the chosen side, `F_b = k_σ(σ_min − σ·s)·s·n_b`, `F_a = F_c = −F_b/2`
 /// (they sum to zero).
-pub fn fold_forces(triples: &[FoldTriple], x: &[Vec3], f: &mut [Vec3]) {
+pub(crate) fn fold_forces(triples: &[FoldTriple], x: &[Vec3], f: &mut [Vec3]) {
     for t in triples {
         let [l, r, u, d] = t.around.map(|p| x[p as usize]);
         let n = (d - u).cross(r - l).normalize_or_zero();

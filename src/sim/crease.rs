@@ -33,7 +33,7 @@
 //! limp cloth (cotton's `5·10⁻⁷`) pleats around the line instead, since
 //! nothing but bending resists the hinge column popping out.
 //!
-//! [`restore`] puts back the original rest lengths exactly, so creases
+//! `restore` puts back the original rest lengths exactly, so creases
 //! can change or go at any time. In an app, the `ClothCreases` component
 //! holds a cloth's creases.
 
@@ -226,7 +226,7 @@ pub struct CreaseRecord {
 impl CreaseRecord {
     /// Follows an edit of the links from `old` to `new` in which particle
     /// `p` of `new` stands for particle `origin[p]` of `old` (a tear's
-    /// copies, [`TearOutcome::origins`](crate::sim::tear::TearOutcome::origins)):
+    /// copies):
     /// every link of `new` that stands for a link the creases changed
     /// keeps that link's original rest length; a link that is gone is
     /// forgotten.
@@ -337,7 +337,7 @@ pub fn apply_creases(
 /// close over several steps: each crossing connection's rest length then
 /// follows `L'² = L² − 2 d_a d_b (1 − cos(fraction · β))`. A fraction
 /// outside `[0, 1]` is clamped to it; NaN folds the whole way.
-pub fn apply_closing<'a>(
+pub(crate) fn apply_closing<'a>(
     cloth: &RestSurface,
     connections: &mut Connections,
     record: &mut CreaseRecord,
@@ -441,7 +441,7 @@ pub fn apply_closing<'a>(
 
 /// Puts back every rest length `record` holds and drops the crease
 /// connections.
-pub fn restore(connections: &mut Connections, record: &mut CreaseRecord) {
+pub(crate) fn restore(connections: &mut Connections, record: &mut CreaseRecord) {
     for (family, k, rest) in record.changed.drain(..) {
         let links = match family {
             LinkFamily::Bend => &mut connections.bend,

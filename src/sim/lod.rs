@@ -1,8 +1,8 @@
 //! Level of detail as plain state: how often a cloth steps by its distance
 //! from the nearest camera and whether any camera sees it ([`LodSettings`],
 //! [`Detail`]), which fixed steps it then takes and how many it combines
-//! ([`Pacer`]), and the rigid motion that keeps it on its moving pins
-//! between them ([`pin_carry`]).
+//! (a pacer), and the rigid motion that keeps it on its moving pins
+//! between them.
 //!
 //! A cloth at [`Detail::Every`]`(k)` takes one step of `k` fixed steps' time
 //! (the implicit solve is stable at such steps); in the fixed steps between,
@@ -17,7 +17,7 @@ use crate::error::ClothError;
 use crate::sim::frame::Carry;
 
 /// The most fixed steps a reduced cloth may combine into one step.
-pub const MAX_EVERY: u32 = 16;
+pub(crate) const MAX_EVERY: u32 = 16;
 
 /// When a cloth steps less often ([module docs](self)). The plugin's
 /// `ClothLod` (per cloth) and `ClothLodDefaults` (global) hold one.
@@ -46,16 +46,16 @@ pub struct LodSettings {
     /// does not step, and the time it misses is dropped (> `near`;
     /// `f32::INFINITY` never freezes).
     pub freeze: f32,
-    /// The most fixed steps combined into one step (1 to [`MAX_EVERY`]),
+    /// The most fixed steps combined into one step (1 to 16),
     /// and the rate of a cloth no camera sees (within `freeze`). A
     /// combined step of `k` fixed steps is solved to a relative tolerance
     /// `k` times the cloth's
-    /// [`ImplicitParams::tolerance`](crate::sim::settings::ImplicitParams::tolerance)
+    /// [`ImplicitSettings::tolerance`](crate::sim::settings::ImplicitSettings::tolerance)
     /// (at most 0.1; the cloth is `k/2` to `k` times farther than `near`,
     /// or unseen), with the same
-    /// [`max_iterations`](crate::sim::settings::ImplicitParams::max_iterations).
-    /// The rate is earned ([`Pacer`]): it halves after a step past
-    /// [`LOD_STRAIN`]. By default 16: a cloth no camera sees steps every
+    /// [`max_iterations`](crate::sim::settings::ImplicitSettings::max_iterations).
+    /// The rate is earned: it halves after a step past 10 % Type 1
+    /// strain. By default 16: a cloth no camera sees steps every
     /// 16th fixed step (3.75 times a second at 60 Hz), and one in view at
     /// most every 8th (from `4·near`, 80 m; the default `freeze` is 100 m).
     pub max_every: u32,
@@ -132,10 +132,10 @@ pub enum Detail {
 
 /// A combined step that leaves a Type 1 link strained past this
 /// (dimensionless) halves the steps the cloth may combine.
-pub const LOD_STRAIN: f32 = 0.1;
+pub(crate) const LOD_STRAIN: f32 = 0.1;
 /// Fixed steps a cloth must stay under [`LOD_STRAIN`] before the steps it
 /// may combine double (half a second at 60 Hz).
-pub const LOD_CALM_STEPS: u32 = 30;
+pub(crate) const LOD_CALM_STEPS: u32 = 30;
 
 /// Which fixed steps a cloth takes at its [`Detail`], and how many fixed
 /// steps each combines.
@@ -147,7 +147,7 @@ pub const LOD_CALM_STEPS: u32 = 30;
 /// [`LOD_STRAIN`], up to [`MAX_EVERY`], and halves after a step that did
 /// not ([`stepped`](Self::stepped)).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Reflect)]
-pub struct Pacer {
+pub(crate) struct Pacer {
     /// Fixed steps since its last step (dropped while frozen).
     waited: u32,
     /// Most fixed steps it may combine now, less one (so 0 by default).
@@ -163,6 +163,13 @@ impl Pacer {
     }
 
     /// `detail` within what the cloth may combine now.
+    #[cfg_attr(
+        not(feature = "render"),
+        allow(
+            dead_code,
+            reason = "the camera-based level of detail needs the render feature"
+        )
+    )]
     pub fn limited(&self, detail: Detail) -> Detail {
         match detail {
             Detail::Every(k) if k.min(self.limit()) <= 1 => Detail::Full,
@@ -194,6 +201,13 @@ impl Pacer {
     /// `phase` spreads cloths of the same rate over different fixed steps.
     /// A cloth back at [`Detail::Full`] catches up the steps it waited in
     /// one step.
+    #[cfg_attr(
+        not(feature = "render"),
+        allow(
+            dead_code,
+            reason = "the camera-based level of detail needs the render feature"
+        )
+    )]
     pub fn tick(&mut self, detail: Detail, clock: u64, phase: u32) -> u32 {
         self.waited += 1;
         let due = match detail {
@@ -225,7 +239,7 @@ impl Pacer {
 /// the least-squares sense: a translation for one pin, the best rotation
 /// about their centre for more. `None` when no pin moves or a pin's motion
 /// is not finite.
-pub fn pin_carry(x: &[Vec3], v: &[Vec3], inverse_masses: &[f32], dt: f32) -> Option<Carry> {
+pub(crate) fn pin_carry(x: &[Vec3], v: &[Vec3], inverse_masses: &[f32], dt: f32) -> Option<Carry> {
     let pins = || {
         x.iter()
             .zip(v)
@@ -256,7 +270,13 @@ pub fn pin_carry(x: &[Vec3], v: &[Vec3], inverse_masses: &[f32], dt: f32) -> Opt
 /// (inverse mass 0) move along their velocities `v` (m/s) over `dt` s, and
 /// its free particles with `carry`, the rigid motion that best fits theirs
 /// ([`pin_carry`]), their velocities turned with it.
-pub fn ride_pins(carry: &Carry, x: &mut [Vec3], v: &mut [Vec3], inverse_masses: &[f32], dt: f32) {
+pub(crate) fn ride_pins(
+    carry: &Carry,
+    x: &mut [Vec3],
+    v: &mut [Vec3],
+    inverse_masses: &[f32],
+    dt: f32,
+) {
     for ((p, u), &w) in x.iter_mut().zip(v.iter_mut()).zip(inverse_masses) {
         if w == 0.0 {
             *p += *u * dt;
@@ -294,7 +314,14 @@ fn rotation_of(a: Mat3) -> Quat {
 /// Whether the box `lo`–`hi` (m) reaches into the view bounded by
 /// `planes`: each `(n, d)` keeps the points with `n·p + d > 0` (a camera
 /// frustum's half-spaces).
-pub fn box_in_view(planes: &[Vec4], (lo, hi): (Vec3, Vec3)) -> bool {
+#[cfg_attr(
+    not(feature = "render"),
+    allow(
+        dead_code,
+        reason = "the camera-based level of detail needs the render feature"
+    )
+)]
+pub(crate) fn box_in_view(planes: &[Vec4], (lo, hi): (Vec3, Vec3)) -> bool {
     let (centre, half) = (0.5 * (lo + hi), 0.5 * (hi - lo));
     planes.iter().all(|plane| {
         let n = plane.truncate();
@@ -303,7 +330,14 @@ pub fn box_in_view(planes: &[Vec4], (lo, hi): (Vec3, Vec3)) -> bool {
 }
 
 /// Distance from `point` to the box `lo`–`hi`, m (0 inside).
-pub fn distance_to_box(point: Vec3, (lo, hi): (Vec3, Vec3)) -> f32 {
+#[cfg_attr(
+    not(feature = "render"),
+    allow(
+        dead_code,
+        reason = "the camera-based level of detail needs the render feature"
+    )
+)]
+pub(crate) fn distance_to_box(point: Vec3, (lo, hi): (Vec3, Vec3)) -> f32 {
     (point - point.clamp(lo, hi)).length()
 }
 

@@ -49,7 +49,7 @@ use crate::sim::settings::SimSettings;
 
 /// Bending rigidity of a cylindrical bend per unit of Type 2 flexural
 /// rigidity over spacing, `B h / k_b` (dimensionless; MODEL.md §11).
-pub const BENDING_PER_LINK: f32 = 3.41;
+pub(crate) const BENDING_PER_LINK: f32 = 3.41;
 
 /// A cloth's properties per unit width, independent of its resolution
 /// (module docs). Each preset's figures are typical of the fabric rather

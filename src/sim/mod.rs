@@ -1,17 +1,17 @@
 //! The simulation: plain data and plain functions, usable without an `App`.
 //!
-//! What lives here: the grid and its links ([`grid`], [`connections`]),
+//! What a caller uses: the grid and its links ([`grid`], [`connections`]),
 //! the particles' state ([`particles`]), every parameter of a step
-//! ([`settings`], [`material`]), the force models ([`model`]), the
-//! integrators ([`integrate`]), a step as a function ([`step`]), the
-//! divergence guard around it ([`guard`]), the strain limit after an
-//! implicit step ([`strain_limit`]), adaptive substeps
-//! ([`adaptive`]), the narrow phase and contacts ([`collision`]), creases'
-//! geometry ([`crease`]), wind on faces ([`wind`]), the particles and links of
-//! a cloth of any shape ([`topology`]), tearing and cutting it ([`tear`]), tethers to the pins ([`tether`]), a
-//! moving frame ([`frame`]), a skinned mesh's animation ([`skin`]), and the
-//! helper thread and worker pool that large steps share their work with
-//! (`team`, [`workers`]).
+//! ([`settings`], [`material`]), the force models ([`model`]), the step's
+//! scratch ([`integrate`]), a step as a function ([`step`]), the divergence
+//! guard around it ([`guard`]), adaptive substeps ([`adaptive`]), the shapes
+//! and contacts of the narrow phase ([`collision`]), creases' geometry
+//! ([`crease`]), wind on faces ([`wind`]), the particles and links of a
+//! cloth of any shape ([`topology`]), tethers to the pins ([`tether`]), sleep
+//! and level of detail ([`sleep`], [`lod`]) and the worker pool that large
+//! steps share their work with ([`workers`]). The strain limit, tearing,
+//! sewing, moving frames and skinning live here too, as the crate's own
+//! plumbing under the [`plugin`](crate::plugin)'s components.
 //!
 //! What it may import: [`bevy::math`], [`bevy::shape`] (shapes and
 //! bounding boxes), [`bevy::reflect`] (the types derive `Reflect` so an
@@ -52,7 +52,7 @@ pub mod adaptive;
 pub mod collision;
 pub mod connections;
 pub mod crease;
-pub mod frame;
+pub(crate) mod frame;
 pub mod grid;
 pub mod guard;
 pub mod integrate;
@@ -61,14 +61,14 @@ pub mod material;
 pub mod model;
 pub mod particles;
 pub mod settings;
-pub mod sew;
-pub mod skin;
+pub(crate) mod sew;
+pub(crate) mod skin;
 pub mod sleep;
 pub(crate) mod soa;
 pub mod step;
-pub mod strain_limit;
+pub(crate) mod strain_limit;
 pub(crate) mod team;
-pub mod tear;
+pub(crate) mod tear;
 pub mod tether;
 pub mod topology;
 pub mod wind;

@@ -167,13 +167,13 @@ impl Particles {
         self.inverse_masses.get(i) == Some(&0.0)
     }
 
-    /// Joins the particles `seam` sews together ([`Seam`](crate::sim::sew::Seam)):
+    /// Joins the particles `seam` sews together (`Seam`):
     /// each joined particle has the sum of their masses and their pins; a
     /// free one sits at their mass-weighted mean position with their
     /// mass-weighted mean velocity (their momentum kept), a pinned one where
     /// its first pinned particle was. Particles of another count than the
     /// seam's are left alone.
-    pub fn sew(&mut self, seam: &crate::sim::sew::Seam) {
+    pub(crate) fn sew(&mut self, seam: &crate::sim::sew::Seam) {
         let n = self.len();
         if seam.map.len() != n || self.velocities.len() != n || self.masses.len() != n {
             return;

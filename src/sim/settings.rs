@@ -1,7 +1,7 @@
 //! [`SimSettings`]: force model, integrator, material constants, the guard,
 //! adaptive substeps and stepping: every parameter of a step.
 //!
-//! In an app, the `ClothDefaults` resource holds the settings every cloth
+//! In an app, the `ClothSettingsDefaults` resource holds the settings every cloth
 //! uses and a `ClothSettings` component on a cloth overrides them; both wrap
 //! a `SimSettings`. Everything reflects, so an inspector can edit it live.
 
@@ -111,13 +111,13 @@ pub enum SlackStiffness {
 }
 
 /// Most past solutions the implicit solve's starting guess may combine
-/// ([`ImplicitParams::past_solutions`]).
-pub const MAX_PAST_SOLUTIONS: u32 = 8;
+/// ([`ImplicitSettings::past_solutions`]).
+pub(crate) const MAX_PAST_SOLUTIONS: u32 = 8;
 
 /// Settings of the implicit integrators' linear solve.
 #[derive(Clone, Copy, Debug, PartialEq, Reflect)]
 #[reflect(Default)]
-pub struct ImplicitParams {
+pub struct ImplicitSettings {
     /// Relative tolerance ε of the preconditioned conjugate gradient: stop
     /// when `rᵀP⁻¹r ≤ ε² bᵀP⁻¹b` (dimensionless; MODEL.md §6.5 uses 1e-3).
     /// `rᵀP⁻¹r` is close to the error's energy `Σ m|δv|² + Σ k δℓ²` (J):
@@ -135,7 +135,7 @@ pub struct ImplicitParams {
     /// Most conjugate-gradient iterations per step.
     pub max_iterations: u32,
     /// How many of the last steps' velocity changes the solve's starting
-    /// guess combines (0 to [`MAX_PAST_SOLUTIONS`]): the combination
+    /// guess combines (0 to 8): the combination
     /// closest to this step's solution in the solve's energy norm (a
     /// Galerkin projection). A cloth in motion repeats much of its last
     /// steps' motion (its fall, its swing, a fold flapping back and forth
@@ -156,8 +156,7 @@ pub struct ImplicitParams {
     pub type2_jacobian: Type2Jacobian,
     /// Slack Type 1 stiffness.
     pub slack_stiffness: SlackStiffness,
-    /// Whether the preconditioner adds a coarse correction
-    /// ([`implicit`](crate::sim::integrate::implicit)): for grid cloths of
+    /// Whether the preconditioner adds a coarse correction: for grid cloths of
     /// at least 4×4 a multigrid V-cycle over squares of 2 × 2 particles,
     /// 4 × 4 and so on, which keeps the iterations of a cloth in motion
     /// about the same from 32×32 to 256×256 (13 to 25 a frame); for mesh
@@ -168,17 +167,13 @@ pub struct ImplicitParams {
     /// Smaller cloths solve without it. On by default.
     pub coarse_grid: bool,
     /// Whether a grid cloth of at least 2048 particles shares the passes
-    /// of its conjugate gradient with a helper thread
-    /// ([`implicit`](crate::sim::integrate::implicit)): on a 2-core x86-64
+    /// of its conjugate gradient with a helper thread: on a 2-core x86-64
     /// a 64×64 solve takes about 1.2 ms rather than 2. It
     /// also lets such a cloth, with any integrator, resolve its contacts in
-    /// two halves on the two threads
-    /// ([`SPLIT_PARTICLES`](crate::plugin::collision::SPLIT_PARTICLES)).
+    /// two halves on the two threads.
     /// The result is bitwise the same either way. On by default.
     pub helper_thread: bool,
-    /// Most extra Newton iterations of a step
-    /// ([`newton_correction`](crate::sim::integrate::implicit::newton_correction))
-    /// whose end state strains a Type 1 link past
+    /// Most extra Newton iterations of a step whose end state strains a Type 1 link past
     /// [`newton_strain`](Self::newton_strain): a step that moves the cloth
     /// far from where its forces were linearised (a storm's first gust on
     /// a slack sheet) is solved again where it ended, before the
@@ -190,12 +185,12 @@ pub struct ImplicitParams {
     pub newton_iterations: u32,
     /// The Type 1 strain (dimensionless) above which a step gets its extra
     /// Newton iterations, if it also grew by a fifth since the last step;
-    /// their solves use tolerances ten times tighter
-    /// ([`NEWTON_TOLERANCE`](crate::sim::integrate::implicit::NEWTON_TOLERANCE)).
+    /// their solves use tolerances ten times tighter (relative 0.1 of the
+    /// step's own).
     /// 5 % by default.
     pub newton_strain: f32,
     /// The largest Type 1 strain (dimensionless) an implicit step may leave
-    /// ([`strain_limit`](crate::sim::strain_limit)): links stretched past it
+    /// links stretched past it
     /// at the end of a step are shortened to it and their particles'
     /// velocities follow, unless the solve held contacts that step. The
     /// step is linearised where it starts, so a stiff or fine sheet let go
@@ -211,7 +206,7 @@ pub struct ImplicitParams {
     pub strain_limit: f32,
 }
 
-impl Default for ImplicitParams {
+impl Default for ImplicitSettings {
     fn default() -> Self {
         Self {
             tolerance: 1e-3,
@@ -236,7 +231,7 @@ impl Default for ImplicitParams {
 /// from the fabric and its spacing instead.
 #[derive(Clone, Copy, Debug, PartialEq, Reflect)]
 #[reflect(Default)]
-pub struct ChoiKoParams {
+pub struct ChoiKoSettings {
     /// Spring constant `k` in N/m of the Type 1 links along the grid
     /// (structural) and of crease springs.
     pub stiffness: f32,
@@ -252,7 +247,7 @@ pub struct ChoiKoParams {
     pub pair_damping: f32,
 }
 
-impl Default for ChoiKoParams {
+impl Default for ChoiKoSettings {
     fn default() -> Self {
         Self {
             stiffness: 1000.0,
@@ -266,7 +261,7 @@ impl Default for ChoiKoParams {
 
 /// One family of Lander springs.
 #[derive(Clone, Copy, Debug, PartialEq, Reflect)]
-pub struct SpringParams {
+pub struct SpringSettings {
     /// Spring constant `k_s` in N/m.
     pub stiffness: f32,
     /// Axial damping `k_d` in N·s/m.
@@ -280,18 +275,18 @@ pub struct SpringParams {
 /// stretch stiffness.
 #[derive(Clone, Copy, Debug, PartialEq, Reflect)]
 #[reflect(Default)]
-pub struct LanderParams {
+pub struct LanderSettings {
     /// ±1 axial springs.
-    pub structural: SpringParams,
+    pub structural: SpringSettings,
     /// ±1 diagonal springs.
-    pub shear: SpringParams,
+    pub shear: SpringSettings,
     /// ±2 axial springs.
-    pub bend: SpringParams,
+    pub bend: SpringSettings,
 }
 
-impl Default for LanderParams {
+impl Default for LanderSettings {
     fn default() -> Self {
-        let spring = |stiffness| SpringParams {
+        let spring = |stiffness| SpringSettings {
             stiffness,
             damping: 0.05,
         };
@@ -371,7 +366,7 @@ impl Default for AdaptiveSubsteps {
 }
 
 /// How a cloth is simulated. In an app, a `ClothSettings` component wraps
-/// it on a cloth entity and overrides the `ClothDefaults` resource.
+/// it on a cloth entity and overrides the `ClothSettingsDefaults` resource.
 ///
 /// The default steps every cloth, of any size and material, once per fixed
 /// step with backward Euler, whose linear solve is stable at any step.
@@ -406,11 +401,11 @@ pub struct SimSettings {
     /// eq. 5. Free-fall terminal speed is `|g|/c`.
     pub damping: f32,
     /// Constants of the Choi–Ko model.
-    pub choi_ko: ChoiKoParams,
+    pub choi_ko: ChoiKoSettings,
     /// Constants of Lander's model.
-    pub lander: LanderParams,
+    pub lander: LanderSettings,
     /// Linear solve of the implicit integrators.
-    pub implicit: ImplicitParams,
+    pub implicit: ImplicitSettings,
     /// The divergence guard ([`guard`](crate::sim::guard)).
     pub guard: GuardSettings,
     /// Whether the internal forces are evaluated in parallel bands.
@@ -426,7 +421,7 @@ pub struct SimSettings {
 }
 
 /// Whether a cloth's internal forces are evaluated in parallel row bands on
-/// Bevy's `ComputeTaskPool` ([`model::bands`](crate::sim::model::bands)).
+/// Bevy's `ComputeTaskPool` (`model::bands`).
 ///
 /// The banded evaluation adds forces in an order fixed by the cloth alone,
 /// so its result is bitwise the same whatever the number of threads (one,
@@ -434,7 +429,7 @@ pub struct SimSettings {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Reflect)]
 pub enum Parallelism {
     /// Always one thread: the explicit integrators' force streams
-    /// ([`model::streams`](crate::sim::model::streams)), the pair kernel for the
+    /// (`model::streams`), the pair kernel for the
     /// implicit ones.
     Off,
     /// Bands for cloths of at least [`Parallelism::AUTO_MIN_PARTICLES`]
@@ -484,9 +479,9 @@ impl Default for SimSettings {
             substeps: 1,
             gravity: Vec3::new(0.0, -9.81, 0.0),
             damping: 2.0,
-            choi_ko: ChoiKoParams::default(),
-            lander: LanderParams::default(),
-            implicit: ImplicitParams::default(),
+            choi_ko: ChoiKoSettings::default(),
+            lander: LanderSettings::default(),
+            implicit: ImplicitSettings::default(),
             guard: GuardSettings::default(),
             parallel: Parallelism::Auto,
             adaptive: Some(AdaptiveSubsteps::default()),

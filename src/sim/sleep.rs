@@ -1,5 +1,5 @@
 //! When a cloth is at rest, and when a resting cloth sleeps: the thresholds
-//! of [`SleepSettings`] and the calm-step count of [`RestTracker`], as plain
+//! of [`SleepSettings`] and the calm-step count of `RestTracker`, as plain
 //! state tested without an `App`.
 //!
 //! A cloth is *at rest* once every free or grabbed particle has stayed
@@ -96,14 +96,14 @@ impl SleepSettings {
 /// Rest detection of one cloth: counts calm steps and says when the cloth
 /// comes to rest or wakes.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct RestTracker {
+pub(crate) struct RestTracker {
     calm_steps: u32,
     resting: bool,
 }
 
 /// What a step changed about a cloth's rest.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum RestChange {
+pub(crate) enum RestChange {
     /// It has been calm for [`SleepSettings::rest_steps`].
     CameToRest,
     /// It was at rest and moves again.

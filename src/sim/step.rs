@@ -4,7 +4,7 @@
 use bevy::math::Vec3;
 
 use crate::sim::connections::Connections;
-use crate::sim::integrate::implicit::{ContactBuffers, Hold, SolveBody, SolveContact};
+pub use crate::sim::integrate::implicit::{ContactBuffers, Hold, SolveBody, SolveContact};
 use crate::sim::integrate::{self, StepBuffers};
 use crate::sim::model::Dynamics;
 use crate::sim::particles::Particles;
@@ -58,7 +58,7 @@ pub trait ContactHook {
     }
 
     /// After an implicit substep, before [`resolve`](Self::resolve): the
-    /// contacts its solve held, whose [`impulses`](ContactBuffers::impulses)
+    /// contacts its solve held, whose `impulses`
     /// say what each gave its particle (N·s), with the particles'
     /// positions (m) and velocities (m/s) at the substep's end. Nothing by
     /// default.
@@ -246,10 +246,10 @@ pub fn step_cloth_with(
 
 /// How far (as a fraction of the shortest Type 1 rest length) a surface may
 /// close in on the cloth in one implicit substep ([`impact_substeps`]).
-pub const IMPACT_REACH: f32 = 0.25;
+pub(crate) const IMPACT_REACH: f32 = 0.25;
 
 /// Most substeps [`impact_substeps`] splits a step into.
-pub const MAX_IMPACT_SUBSTEPS: u32 = 8;
+pub(crate) const MAX_IMPACT_SUBSTEPS: u32 = 8;
 
 /// The substeps an implicit step of `dt` s needs for its predicted
 /// `contacts` (particle velocities `v`, m/s): enough that no moving surface
@@ -264,7 +264,7 @@ pub const MAX_IMPACT_SUBSTEPS: u32 = 8;
 /// by an angle `θ` within a linearised step comes out stretched by about
 /// `1/cos θ − 1`. In substeps of a quarter link each, the links turn a
 /// little at a time and the cloth follows.
-pub fn impact_substeps(
+pub(crate) fn impact_substeps(
     contacts: &[SolveContact],
     v: &[Vec3],
     connections: &Connections,

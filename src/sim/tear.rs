@@ -97,7 +97,7 @@ impl Blade {
 /// the plane its triangles are sorted by, and a second choice for a
 /// particle that the plane does not split.
 #[derive(Clone, Debug, Default)]
-pub struct TearPlan {
+pub(crate) struct TearPlan {
     splits: Vec<Split>,
     /// How many cracks the splits belong to (a broken link or a blade
     /// each).
@@ -109,11 +109,6 @@ pub struct TearPlan {
 type Split = (u32, Plane, Option<(u32, Plane)>, u32);
 
 impl TearPlan {
-    /// Whether the plan splits nothing.
-    pub fn is_empty(&self) -> bool {
-        self.splits.is_empty()
-    }
-
     /// Adds `other`'s splits after this plan's.
     pub fn extend(&mut self, other: Self) {
         let offset = self.cracks;
@@ -128,7 +123,7 @@ impl TearPlan {
 }
 
 /// The triangles around each particle of one topology.
-pub struct Adjacency {
+pub(crate) struct Adjacency {
     around: Vec<Vec<u32>>,
 }
 
@@ -203,7 +198,7 @@ impl Origins {
 /// the particle split by the plane through it across the link (the other
 /// end if that splits nothing). A link of zero length or out of range is
 /// skipped.
-pub fn break_links(x: &[Vec3], links: &[(u32, u32)]) -> TearPlan {
+pub(crate) fn break_links(x: &[Vec3], links: &[(u32, u32)]) -> TearPlan {
     let mut plan = TearPlan::default();
     let n = x.len() as u32;
     for &(a, b) in links {
@@ -227,7 +222,7 @@ pub fn break_links(x: &[Vec3], links: &[(u32, u32)]) -> TearPlan {
 /// the normal's side keep it, the others get a copy, and the edges between
 /// them open. Each is a crack of its own. A particle out of range, or a
 /// normal that is zero or not finite, is skipped.
-pub fn split_particles(x: &[Vec3], particles: &[(u32, Vec3)]) -> TearPlan {
+pub(crate) fn split_particles(x: &[Vec3], particles: &[(u32, Vec3)]) -> TearPlan {
     let mut plan = TearPlan::default();
     for &(p, normal) in particles {
         let (Some(&point), Some(normal)) = (x.get(p as usize), normal.try_normalize()) else {
@@ -338,7 +333,7 @@ impl TearOutcome {
 /// each particle to split whose triangles lie on both sides of its plane
 /// gets a copy (rest position copied), and the smaller side by area moves
 /// to the copy. `adjacency` is the topology's before the tear.
-pub fn apply(
+pub(crate) fn apply(
     topology: &mut MeshTopology,
     adjacency: &Adjacency,
     x: &[Vec3],
@@ -440,7 +435,7 @@ pub fn apply(
 /// only after the tear (new continuations along a crack's sides) are not
 /// added. Crease links and fold triples stay where their Type 2 link and
 /// all their particles stay: a crease across a tear ends at the tear.
-pub fn rebuild(
+pub(crate) fn rebuild(
     old: &Connections,
     before: &Connections,
     after: &Connections,

@@ -3,17 +3,17 @@
 //! draws it).
 //!
 //! 1. **Particles.** Vertices at the same position (within
-//!    [`WELD_TOLERANCE`] of the mesh's size) are welded into one particle; triangles with a repeated particle or no area are dropped,
+//!    `WELD_TOLERANCE` of the mesh's size) are welded into one particle; triangles with a repeated particle or no area are dropped,
 //!    and so are vertices no triangle uses.
 //! 2. **Type 1** is every mesh edge. An edge shared by two triangles that
 //!    form a near-planar convex quad, and that is the longest edge of both
-//!    by [`DIAGONAL_RATIO`], is the quad's diagonal: the quad's other
+//!    by `DIAGONAL_RATIO`, is the quad's diagonal: the quad's other
 //!    diagonal is added too. Diagonals go to the `shear` family, the other
 //!    edges to `structural` (on a grid: the (1,1) links and the axial ones).
 //! 3. **Type 2** links each particle `v`, across each Type 1 link `v–w`, to
 //!    the Type 1 neighbour `u` of `w` that best continues the line `v → w`,
 //!    if the turn from `v → w` to `w → u` is at most
-//!    [`MAX_CONTINUATION_ANGLE`]. Across a `structural` link it is a `bend`
+//!    `MAX_CONTINUATION_ANGLE`. Across a `structural` link it is a `bend`
 //!    link, across a `shear` link a `bend_diagonal` one.
 //!
 //! Rest lengths are the mesh's as modelled. Each unordered pair is stored
@@ -31,22 +31,22 @@ use crate::sim::grid::{Faces, Grid, MAX_PARTICLES};
 /// be to count as a quad's diagonal (dimensionless). A grid's diagonal is
 /// √2 times its sides; an equilateral mesh has no quads and gets no
 /// diagonals.
-pub const DIAGONAL_RATIO: f32 = 1.2;
+pub(crate) const DIAGONAL_RATIO: f32 = 1.2;
 
 /// How close two vertices weld, as a fraction of the mesh's size (its
 /// bounding box's diagonal): 10⁻⁶, enough for a seam whose two sides were
 /// computed separately (a UV sphere's, where `sin 2π ≠ 0`).
-pub const WELD_TOLERANCE: f32 = 1e-6;
+pub(crate) const WELD_TOLERANCE: f32 = 1e-6;
 
 /// The largest angle between two triangles' normals (rad) for them to form
 /// a near-planar quad: 20°.
-pub const MAX_QUAD_FOLD: f32 = 20.0 * std::f32::consts::PI / 180.0;
+pub(crate) const MAX_QUAD_FOLD: f32 = 20.0 * std::f32::consts::PI / 180.0;
 
 /// The largest turn (rad) from `v → w` to `w → u` for a Type 2 link `v–u`:
 /// 40°. A grid's continuation is straight and its next candidates turn
 /// 45°; around a mesh vertex of valence 5 (72° apart) the best one turns at
 /// most 36°.
-pub const MAX_CONTINUATION_ANGLE: f32 = 40.0 * std::f32::consts::PI / 180.0;
+pub(crate) const MAX_CONTINUATION_ANGLE: f32 = 40.0 * std::f32::consts::PI / 180.0;
 
 /// The particles of a triangle mesh after welding, and its triangles.
 #[derive(Clone, Debug, Default, PartialEq)]

@@ -106,7 +106,7 @@ pub fn wind_forces(
 /// passes it, with any integrator; a gentle breeze (`c·dt ≪ 1`) is left as
 /// it is.
 /// `inverse_masses` in 1/kg; `scratch` holds one drag rate per particle.
-pub fn step_wind_forces(
+pub(crate) fn step_wind_forces(
     cloth: &impl Faces,
     wind: &Wind,
     air: Vec3,

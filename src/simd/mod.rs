@@ -101,7 +101,7 @@ pub fn level() -> Level {
 /// ```ignore
 /// multiversion! {
 ///     /// The solve, compiled for the CPU.
-///     fn pcg_at(params: &ImplicitParams, buffers: &mut ImplicitBuffers) -> (u32, f32) = pcg_inner;
+///     fn pcg_at(params: &ImplicitSettings, buffers: &mut ImplicitBuffers) -> (u32, f32) = pcg_inner;
 /// }
 /// let (iterations, residual) = pcg_at(simd::level(), params, buffers);
 /// ```

@@ -104,7 +104,9 @@ fn per_cloth_settings_override_the_defaults() {
     assert!(particles(&app, falls).positions[24].y < start[24].y - 0.01);
     // Changing the global defaults reaches the cloth without an override:
     // gravity upwards lifts it.
-    app.world_mut().resource_mut::<ClothDefaults>().gravity = Vec3::Y * 9.81;
+    app.world_mut()
+        .resource_mut::<ClothSettingsDefaults>()
+        .gravity = Vec3::Y * 9.81;
     let y = particles(&app, falls).positions[24].y;
     for _ in 0..60 {
         app.update();
@@ -335,7 +337,7 @@ fn statistics_measure_the_state_whatever_changed_it_after_the_step() {
     // in two halves (one on the helper thread), and the writeback reuses
     // its figure unless the particles changed since.
     let mut app = app();
-    app.insert_resource(ClothDefaults(
+    app.insert_resource(ClothSettingsDefaults(
         SimSettings::default().with_integrator(Integrator::BackwardEuler, 1),
     ))
     .add_systems(FixedUpdate, shove.in_set(ClothSystems::Collide));

@@ -13,7 +13,7 @@ use bevy::time::TimeUpdateStrategy;
 use bevy::transform::TransformPlugin;
 use bevy_cloth::plugin::bridges::avian::ClothAvianPlugin;
 use bevy_cloth::plugin::collision::{
-    ClothColliderSources, ClothContactImpulses, ColliderScene, ContactLayers,
+    ClothColliderScene, ClothColliderSources, ClothContactImpulses, ClothContactLayers,
 };
 use bevy_cloth::prelude::*;
 use bevy_cloth::sim::material::Fabric;
@@ -231,7 +231,7 @@ fn every_avian_shape_drapes_a_cloth() {
 
 /// Where the middle of a sheet dropped onto a 0.3 m ball ends up, with the
 /// given cloth layers and ball setup.
-fn drop_on_ball(cloth_layers: Option<ContactLayers>, ball: impl Bundle) -> f32 {
+fn drop_on_ball(cloth_layers: Option<ClothContactLayers>, ball: impl Bundle) -> f32 {
     let mut app = app();
     floor(&mut app);
     app.world_mut().spawn((
@@ -253,12 +253,12 @@ fn layers_and_sensors_are_respected() {
     let on = drop_on_ball(None, ());
     assert!(on > 0.99, "on the ball: {on}");
     let shared = drop_on_ball(
-        Some(ContactLayers::new(0b10, 0b11)),
+        Some(ClothContactLayers::new(0b10, 0b11)),
         CollisionLayers::new(0b01, 0b10),
     );
     assert!(shared > 0.99, "shared layers: {shared}");
     let apart = drop_on_ball(
-        Some(ContactLayers::new(0b10, 0b10)),
+        Some(ClothContactLayers::new(0b10, 0b10)),
         CollisionLayers::new(0b01, 0b01),
     );
     assert!(apart < 0.1, "no shared layer: fell to {apart}");
@@ -290,7 +290,7 @@ fn a_collider_whose_layers_change_lets_the_cloth_go() {
     assert!(positions(&app, cloth)[middle].y > 0.99);
     app.world_mut()
         .entity_mut(cloth)
-        .insert(ContactLayers::new(0b10, 0b10));
+        .insert(ClothContactLayers::new(0b10, 0b10));
     app.world_mut()
         .entity_mut(box_)
         .insert(CollisionLayers::new(0b01, 0b01));
@@ -310,7 +310,10 @@ fn a_cloth_collider_and_an_avian_collider_on_one_entity_collide_once() {
     ));
     let (cloth, _) = sheet(&mut app, 1.2);
     run(&mut app, 2, cloth);
-    assert_eq!(app.world().resource::<ColliderScene>().colliders.len(), 1);
+    assert_eq!(
+        app.world().resource::<ClothColliderScene>().colliders.len(),
+        1
+    );
 }
 
 #[derive(Component)]
@@ -630,7 +633,10 @@ fn a_ball_thrown_into_a_free_curtain_gives_it_the_momentum_it_loses() {
     // the ball loses the curtain gains.
     let mut app = app();
     app.insert_resource(Gravity(Vec3::ZERO));
-    app.world_mut().resource_mut::<ClothDefaults>().0.gravity = Vec3::ZERO;
+    app.world_mut()
+        .resource_mut::<ClothSettingsDefaults>()
+        .0
+        .gravity = Vec3::ZERO;
     let undamped = ClothMaterial::Fabric(Fabric {
         damping: 0.0,
         ..Fabric::COTTON

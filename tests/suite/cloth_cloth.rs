@@ -208,7 +208,7 @@ fn cloths_whose_groups_do_not_meet_and_cloths_without_it_pass_through() {
                 .spawn(flat(10, 0.6, Vec3::new(0.0, at, 0.0)));
             if let Some((m, f)) = groups {
                 e.insert(ClothToClothCollision {
-                    groups: ContactLayers::new(m * layers, f * layers),
+                    groups: ClothContactLayers::new(m * layers, f * layers),
                     ..default()
                 });
             }
@@ -464,7 +464,7 @@ fn a_mesh_disc_dropped_on_a_grid_sheet_rests_on_it_and_a_sheet_rests_on_the_disc
 #[test]
 fn with_an_explicit_integrator_a_sheet_still_rests_on_a_sheet() {
     let mut app = app();
-    app.insert_resource(ClothDefaults(
+    app.insert_resource(ClothSettingsDefaults(
         SimSettings::default().with_integrator(Integrator::SymplecticEuler, 40),
     ));
     floor(&mut app);

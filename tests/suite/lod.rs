@@ -6,7 +6,7 @@ use crate::common;
 
 use bevy::camera::{Camera, CameraProjection, PerspectiveProjection};
 use bevy::prelude::*;
-use bevy_cloth::plugin::skin::SkinTargets;
+use bevy_cloth::plugin::skin::ClothSkinTargets;
 use bevy_cloth::prelude::*;
 use bevy_cloth::sim::connections::max_strain;
 use common::{app, particles, sheet, wear};
@@ -440,7 +440,7 @@ fn walked(far: f32, seen: bool, level: Detail) -> (f32, f32, Detail) {
         let p = particles(&app, e);
         assert!(p.is_finite());
         strain = strain.max(max_strain(links.type1(), &p.positions));
-        let targets = app.world().get::<SkinTargets>(e).unwrap();
+        let targets = app.world().get::<ClothSkinTargets>(e).unwrap();
         let skin = app.world().get::<ClothSkin>(e).unwrap();
         for (i, &f) in skin.freedom.iter().enumerate() {
             if f <= 0.0 {

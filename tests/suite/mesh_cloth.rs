@@ -11,9 +11,9 @@ use bevy_cloth::sim::collision::shapes::Shape;
 use bevy_cloth::sim::connections::{Connections, max_strain};
 use bevy_cloth::sim::guard::{GuardState, StepInput, step_guarded};
 use bevy_cloth::sim::integrate::StepBuffers;
-use bevy_cloth::sim::integrate::implicit::{Hold, SolveBody, SolveContact};
 use bevy_cloth::sim::particles::Particles;
 use bevy_cloth::sim::step::{ContactHook, NoContacts, Substep, step_cloth_with};
+use bevy_cloth::sim::step::{Hold, SolveBody, SolveContact};
 use bevy_cloth::sim::topology::{MeshTopology, disc};
 
 const DT: f32 = 1.0 / 60.0;

@@ -33,7 +33,7 @@ fn swing(n: u32) -> (Vec<u32>, u32, f32) {
 /// The iteration cap of the app's default settings.
 fn cap(app: &App) -> u32 {
     app.world()
-        .resource::<ClothDefaults>()
+        .resource::<ClothSettingsDefaults>()
         .0
         .implicit
         .max_iterations

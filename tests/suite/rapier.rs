@@ -11,7 +11,7 @@ use bevy::prelude::*;
 use bevy::time::TimeUpdateStrategy;
 use bevy::transform::TransformPlugin;
 use bevy_cloth::plugin::bridges::rapier::ClothRapierPlugin;
-use bevy_cloth::plugin::collision::{ClothContactImpulses, ColliderScene, ContactLayers};
+use bevy_cloth::plugin::collision::{ClothColliderScene, ClothContactImpulses, ClothContactLayers};
 use bevy_cloth::prelude::*;
 use bevy_cloth::sim::material::Fabric;
 use bevy_rapier3d::prelude::*;
@@ -226,7 +226,7 @@ fn every_rapier_shape_drapes_a_cloth() {
 
 /// Where the middle of a sheet dropped onto a 0.3 m ball ends up, with the
 /// given cloth layers and ball setup.
-fn drop_on_ball(cloth_layers: Option<ContactLayers>, ball: impl Bundle) -> f32 {
+fn drop_on_ball(cloth_layers: Option<ClothContactLayers>, ball: impl Bundle) -> f32 {
     let mut app = app();
     floor(&mut app);
     app.world_mut().spawn((
@@ -248,12 +248,12 @@ fn collision_groups_and_sensors_are_respected() {
     let on = drop_on_ball(None, ());
     assert!(on > 0.99, "on the ball: {on}");
     let shared = drop_on_ball(
-        Some(ContactLayers::new(0b10, 0b11)),
+        Some(ClothContactLayers::new(0b10, 0b11)),
         CollisionGroups::new(Group::GROUP_1, Group::GROUP_2),
     );
     assert!(shared > 0.99, "shared groups: {shared}");
     let apart = drop_on_ball(
-        Some(ContactLayers::new(0b10, 0b10)),
+        Some(ClothContactLayers::new(0b10, 0b10)),
         CollisionGroups::new(Group::GROUP_1, Group::GROUP_1),
     );
     assert!(apart < 0.1, "no shared group: fell to {apart}");
@@ -287,7 +287,7 @@ fn a_collider_whose_groups_change_lets_the_cloth_go() {
     assert!(positions(&app, cloth)[middle].y > 0.99);
     app.world_mut()
         .entity_mut(cloth)
-        .insert(ContactLayers::new(0b10, 0b10));
+        .insert(ClothContactLayers::new(0b10, 0b10));
     app.world_mut()
         .entity_mut(box_)
         .insert(CollisionGroups::new(Group::GROUP_1, Group::GROUP_1));
@@ -316,7 +316,10 @@ fn a_cloth_collider_and_a_rapier_collider_on_one_entity_collide_once() {
     ));
     let (cloth, _) = sheet(&mut app, 1.2);
     run(&mut app, 2, cloth);
-    assert_eq!(app.world().resource::<ColliderScene>().colliders.len(), 1);
+    assert_eq!(
+        app.world().resource::<ClothColliderScene>().colliders.len(),
+        1
+    );
 }
 
 #[test]
@@ -525,7 +528,10 @@ fn a_ball_thrown_into_a_free_curtain_gives_it_the_momentum_it_loses() {
         .single_mut(app.world_mut())
         .unwrap()
         .gravity = Vec3::ZERO;
-    app.world_mut().resource_mut::<ClothDefaults>().0.gravity = Vec3::ZERO;
+    app.world_mut()
+        .resource_mut::<ClothSettingsDefaults>()
+        .0
+        .gravity = Vec3::ZERO;
     let undamped = ClothMaterial::Fabric(Fabric {
         damping: 0.0,
         ..Fabric::COTTON
@@ -703,7 +709,10 @@ fn an_entity_with_both_engines_colliders_collides_once() {
     ));
     let (cloth, middle) = sheet(&mut app, 1.2);
     run(&mut app, 2, cloth);
-    assert_eq!(app.world().resource::<ColliderScene>().colliders.len(), 1);
+    assert_eq!(
+        app.world().resource::<ClothColliderScene>().colliders.len(),
+        1
+    );
     run(&mut app, 60, cloth);
     let y = positions(&app, cloth)[middle].y;
     assert!((0.99..1.03).contains(&y), "on the ball: {y}");

@@ -5,7 +5,7 @@
 use crate::common;
 
 use bevy::prelude::*;
-use bevy_cloth::plugin::skin::SkinTargets;
+use bevy_cloth::plugin::skin::ClothSkinTargets;
 use bevy_cloth::prelude::*;
 use common::{COLS, ROWS, app, particles, ribbon, wear};
 
@@ -40,7 +40,7 @@ fn cpu_skinning_matches_bevys_formula_in_the_same_frame() {
             .unwrap()
             .rotation = Quat::from_rotation_z(0.5 * a);
         app.update();
-        let targets = app.world().get::<SkinTargets>(e).unwrap();
+        let targets = app.world().get::<ClothSkinTargets>(e).unwrap();
         for p in 0..(COLS * ROWS) as usize {
             let want = bevy_skinned(&app, e, p);
             assert!(
@@ -63,7 +63,12 @@ fn kinematic_particles_follow_the_animation_exactly() {
             .unwrap()
             .rotation = Quat::from_rotation_x(a);
         app.update();
-        let targets = app.world().get::<SkinTargets>(e).unwrap().positions.clone();
+        let targets = app
+            .world()
+            .get::<ClothSkinTargets>(e)
+            .unwrap()
+            .positions
+            .clone();
         let p = particles(&app, e);
         assert!(p.is_finite());
         for (i, target) in targets.iter().enumerate().take(COLS as usize) {
@@ -92,7 +97,12 @@ fn spin(max: f32) -> (f32, f32) {
         angle += 20.0 * (k as f32 / 15.0).min(1.0) / 60.0;
         app.world_mut().get_mut::<Transform>(root).unwrap().rotation = Quat::from_rotation_y(angle);
         app.update();
-        let targets = app.world().get::<SkinTargets>(e).unwrap().positions.clone();
+        let targets = app
+            .world()
+            .get::<ClothSkinTargets>(e)
+            .unwrap()
+            .positions
+            .clone();
         let p = particles(&app, e);
         assert!(p.is_finite(), "step {k}");
         for (i, (x, t)) in p.positions.iter().zip(&targets).enumerate() {

@@ -4,7 +4,7 @@
 use crate::common;
 
 use bevy::prelude::*;
-use bevy_cloth::plugin::collision::ContactLayers;
+use bevy_cloth::plugin::collision::ClothContactLayers;
 use bevy_cloth::prelude::*;
 use common::{app, particles};
 
@@ -186,7 +186,10 @@ fn everything_that_could_move_a_sleeping_cloth_wakes_it_in_the_same_step() {
                 .insert(ClothSettings(settings));
         }),
         ("the defaults", |app, _, _| {
-            app.world_mut().resource_mut::<ClothDefaults>().0.damping = 1.0;
+            app.world_mut()
+                .resource_mut::<ClothSettingsDefaults>()
+                .0
+                .damping = 1.0;
         }),
         ("a force", |app, cloth, _| {
             let mut forces = app.world_mut().get_mut::<ClothForces>(cloth).unwrap();
@@ -212,7 +215,9 @@ fn everything_that_could_move_a_sleeping_cloth_wakes_it_in_the_same_step() {
             });
         }),
         ("its layers", |app, cloth, _| {
-            app.world_mut().entity_mut(cloth).insert(ContactLayers::ALL);
+            app.world_mut()
+                .entity_mut(cloth)
+                .insert(ClothContactLayers::ALL);
         }),
     ];
     for (name, trigger) in triggers {

@@ -1,6 +1,6 @@
 //! The physics-engine bridges, each a thin room on the crate's public
 //! collision port ([`ClothColliderSources`](crate::plugin::collision::ClothColliderSources),
-//! [`ColliderScene`](crate::plugin::collision::ColliderScene),
+//! [`ClothColliderScene`](crate::plugin::collision::ClothColliderScene),
 //! [`ClothContactImpulses`](crate::plugin::collision::ClothContactImpulses)):
 //! `avian` (feature `avian`, [`ClothAvianPlugin`](avian::ClothAvianPlugin))
 //! and `rapier` (feature `rapier`, [`ClothRapierPlugin`](rapier::ClothRapierPlugin)),

@@ -14,7 +14,7 @@ use bevy::math::Vec3;
 use bevy::prelude::*;
 use bevy::time::Fixed;
 
-use super::ContactLayers;
+use super::ClothContactLayers;
 use crate::error::ClothError;
 use crate::plugin::components::{Cloth, ClothParticles};
 use crate::plugin::sleep::ClothSleep;
@@ -27,7 +27,7 @@ use crate::sim::integrate::implicit::SolveContact;
 /// [`layer`](Self::layer) is kept `thickness` m off the other's surface
 /// inside its own step (its particles off the other's triangles, its
 /// triangles off the other's particles), and the other moves as if it were
-/// not there ([`sim::collision::cloths`](crate::sim::collision::cloths)).
+/// not there (`sim::collision::cloths`).
 ///
 /// Two cloths meet when their [`groups`](Self::groups) interact; a pair
 /// keeps the larger of its two thicknesses and the mean of its frictions.
@@ -51,7 +51,7 @@ use crate::sim::integrate::implicit::SolveContact;
 ///     ));
 ///     // A flag that meets only cloths in group 2.
 ///     let flag = ClothToClothCollision {
-///         groups: ContactLayers::new(2, 2),
+///         groups: ClothContactLayers::new(2, 2),
 ///         ..default()
 ///     };
 ///     commands.spawn((ClothBuilder::new(16, 10).build()?, flag));
@@ -70,7 +70,7 @@ pub struct ClothToClothCollision {
     pub friction: f32,
     /// Which cloths it meets: two meet when each one's `memberships` share
     /// a bit with the other's `filters`.
-    pub groups: ContactLayers,
+    pub groups: ClothContactLayers,
     /// Its place in the stack of cloths (dimensionless): of two cloths that
     /// meet, the one of the higher layer is kept off the other, which moves
     /// as if the first were not there. Layered clothing: a cape (layer 1)
@@ -84,7 +84,7 @@ impl Default for ClothToClothCollision {
         Self {
             thickness: 0.01,
             friction: 0.4,
-            groups: ContactLayers::ALL,
+            groups: ClothContactLayers::ALL,
             layer: 0,
         }
     }
@@ -109,7 +109,7 @@ impl ClothToClothCollision {
 /// A colliding cloth's scratch: the obstacles near it in this step and the
 /// contact passes' lists.
 #[derive(Component, Clone, Debug, Default)]
-pub struct ClothToClothScratch {
+pub(crate) struct ClothToClothScratch {
     /// Index into [`ClothObstacles`] of the cloth itself, and of each
     /// obstacle near it with the pair's contact.
     pub(crate) near: (Option<usize>, Vec<(usize, Pair)>),

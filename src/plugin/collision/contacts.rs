@@ -1,14 +1,16 @@
-//! A cloth's contacts with the [`ColliderScene`] during its step: the
+//! A cloth's contacts with the [`ClothColliderScene`] during its step: the
 //! integrators' [`ContactHook`], and the impulses it measures for colliders
 //! with [`feedback`](SceneCollider::feedback).
 
 use bevy::math::{Isometry3d, Quat, Vec3};
 
-use crate::plugin::collision::scene::{ColliderScene, ContactImpulse, SceneCollider};
+use crate::plugin::collision::scene::{ClothColliderScene, ContactImpulse, SceneCollider};
 use crate::plugin::components::Cloth;
 use crate::sim::collision::ccd::prevent_crossings;
 use crate::sim::collision::contact::{MovingCollider, collide_particles};
-use crate::sim::collision::self_collision::{keep_apart, self_collide};
+use crate::sim::collision::self_collision::keep_apart;
+#[cfg(test)]
+use crate::sim::collision::self_collision::self_collide;
 use crate::sim::collision::{Counts, SelfCollisionBuffers};
 use crate::sim::collision::{edges, predict};
 use crate::sim::connections::Link;
@@ -19,9 +21,9 @@ use crate::sim::tether::Tethers;
 
 /// Particles from which a cloth's contacts with each collider are resolved
 /// in two halves, one on the implicit solver's helper thread, when
-/// [`ImplicitParams::helper_thread`](crate::sim::settings::ImplicitParams::helper_thread)
+/// [`ImplicitSettings::helper_thread`](crate::sim::settings::ImplicitSettings::helper_thread)
 /// allows (the result is the same either way).
-pub const SPLIT_PARTICLES: usize = crate::sim::team::SPLIT_PARTICLES;
+pub(crate) const SPLIT_PARTICLES: usize = crate::sim::team::SPLIT_PARTICLES;
 
 /// Resolves the contacts of the particles with one collider over a
 /// substep, at the cloth's contact `thickness` (m) plus the collider's
@@ -59,12 +61,13 @@ fn collide_one(
 /// [`SPLIT_PARTICLES`] or more shares the work with the helper thread. The
 /// ECS step calls this from the integrator's contact hook; it is a plain
 /// function so it can be tested and benched without an `App`.
+#[cfg(test)]
 #[expect(
     clippy::too_many_arguments,
     reason = "a plain function over the cloth's slices"
 )]
-pub fn resolve_substep(
-    scene: &ColliderScene,
+pub(crate) fn resolve_substep(
+    scene: &ClothColliderScene,
     near: &[usize],
     (thickness, helper): (f32, bool),
     self_collision: Option<(&Cloth, f32, &mut SelfCollisionBuffers)>,
@@ -210,7 +213,7 @@ impl Feedback {
 /// are measured on the way.
 pub(crate) struct SceneContacts<'a> {
     /// The scene.
-    pub(crate) scene: &'a ColliderScene,
+    pub(crate) scene: &'a ClothColliderScene,
     /// The scene's colliders near the cloth.
     pub(crate) near: &'a [usize],
     /// Contact thickness, m.
@@ -472,5 +475,77 @@ impl ContactHook for SceneContacts<'_> {
                 self.feedback.entry(c).add_at(-impulse, at, moving);
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use bevy::prelude::*;
+
+    use super::*;
+    use crate::plugin::collision::{ClothColliderScene, ColliderShape, SceneCollider, Shape};
+
+    /// A 64×64 cloth's contacts with a sphere, resolved in one pass and in two
+    /// halves on two threads: the same positions, velocities and counts.
+    #[test]
+    fn a_large_cloths_contacts_are_the_same_in_two_halves() {
+        let pose = Isometry3d::from_translation(Vec3::new(0.0, 1.0, 0.0));
+        let scene = ClothColliderScene {
+            colliders: vec![SceneCollider::new(
+                Entity::PLACEHOLDER,
+                ColliderShape::Analytic(Shape::Sphere { radius: 0.3 }),
+                pose,
+                pose,
+            )],
+        };
+        let n = 64usize;
+        assert!(n * n >= SPLIT_PARTICLES);
+        // A sheet 1 cm above the sphere's top moving 3 cm down in the substep:
+        // its middle ends inside, its edges stay clear.
+        let start: Vec<Vec3> = (0..n * n)
+            .map(|i| {
+                let (u, w) = ((i % n) as f32 / 63.0 - 0.5, (i / n) as f32 / 63.0 - 0.5);
+                Vec3::new(u, 1.31, w)
+            })
+            .collect();
+        let end: Vec<Vec3> = start
+            .iter()
+            .map(|p| *p - Vec3::new(0.0, 0.03, 0.0))
+            .collect();
+        let inverse_masses = vec![1.0; n * n];
+        let sub = Substep {
+            from: 0.0,
+            to: 1.0,
+            dt: 1.0 / 60.0,
+        };
+        let run = |helper: bool| {
+            let (mut x, mut v) = (end.clone(), vec![Vec3::new(0.0, -1.8, 0.0); n * n]);
+            let (counts, _) = resolve_substep(
+                &scene,
+                &[0],
+                (0.005, helper),
+                None,
+                sub,
+                &start,
+                &mut x,
+                &mut v,
+                &inverse_masses,
+            );
+            (x, v, counts)
+        };
+        let (x1, v1, one) = run(false);
+        let (x2, v2, two) = run(true);
+        assert!(
+            one.contacts > 100 && one.contacts < (n * n) as u32 / 2,
+            "{one:?}"
+        );
+        assert_eq!((one.tests, one.contacts), (two.tests, two.contacts));
+        let bits = |p: &[Vec3]| {
+            p.iter()
+                .flat_map(|q| q.to_array().map(f32::to_bits))
+                .collect::<Vec<_>>()
+        };
+        assert_eq!(bits(&x1), bits(&x2));
+        assert_eq!(bits(&v1), bits(&v2));
     }
 }

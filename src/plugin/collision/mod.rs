@@ -4,7 +4,8 @@
 //!   cuboid, capsule, cylinder, or a triangle mesh built from a Bevy `Mesh`,
 //!   each with friction and restitution. Its pose comes from the entity's
 //!   rotation and translation (scale is ignored: size the shape itself), read
-//!   as [`pose`](crate::plugin::pose) explains, so a collider moved in `FixedUpdate`
+//!   from a root entity's own `Transform` (a child's `GlobalTransform`), so
+//!   a collider moved in `FixedUpdate`
 //!   is seen at once. Its motion over each fixed step enters the response.
 //! - [`ClothCollision`] on a cloth sets its thickness (default 5 mm).
 //! - [`ClothSelfCollision`] opts a cloth into self-collision.
@@ -16,7 +17,7 @@
 //! gather poses:
 //!
 //! 1. In [`ClothSystems::Prepare`] every collider's pose at the start and
-//!    end of the fixed step is gathered into the [`ColliderScene`].
+//!    end of the fixed step is gathered into the [`ClothColliderScene`].
 //! 2. In [`ClothSystems::Integrate`] contacts with the scene's colliders
 //!    (poses interpolated over the step), and self-contacts, are resolved
 //!    **after every substep**: once per fixed step is too coarse for springs
@@ -54,17 +55,18 @@ use crate::plugin::components::Cloth;
 use crate::plugin::components::ClothParticles;
 use crate::plugin::pose::WorldPose;
 use crate::plugin::schedule::ClothSystems;
+pub(crate) use crate::sim::collision::SelfCollisionBuffers;
 use crate::sim::collision::contact::seed_triangle_pass;
-pub use crate::sim::collision::{Counts, SelfCollisionBuffers, Shape, TriMesh};
+pub use crate::sim::collision::{Counts, Shape, TriMesh};
 use crate::sim::particles::Particles;
 
+pub(crate) use cloths::ClothToClothScratch;
 pub(crate) use cloths::{ClothContacts, obstacles_in_use, take_obstacles};
-pub use cloths::{ClothObstacles, ClothToClothCollision, ClothToClothScratch};
+pub use cloths::{ClothObstacles, ClothToClothCollision};
 pub(crate) use contacts::{Feedback, SceneContacts};
-pub use contacts::{SPLIT_PARTICLES, resolve_substep};
 pub use scene::{
-    ClothColliderSources, ClothContactImpulses, ColliderScene, ContactImpulse, ContactLayers,
-    ReportClothImpulses, SceneCollider,
+    ClothColliderScene, ClothColliderSources, ClothContactImpulses, ClothContactLayers,
+    ClothReportImpulses, ContactImpulse, SceneCollider,
 };
 pub(crate) use watch::SleepWatch;
 
@@ -94,7 +96,7 @@ pub enum ColliderShape {
 /// ```
 #[derive(Component, Clone, Debug, Reflect)]
 #[reflect(Component, Debug)]
-#[require(ColliderMotion)]
+#[require(ClothColliderMotion)]
 pub struct ClothCollider {
     /// The surface, in the entity's local frame.
     pub shape: ColliderShape,
@@ -218,7 +220,7 @@ impl ColliderShape {
 /// The collider's pose at the end of the previous fixed step, from which
 /// its motion over the step is taken.
 #[derive(Component, Clone, Debug, Default)]
-pub struct ColliderMotion {
+pub struct ClothColliderMotion {
     previous: Option<Isometry3d>,
 }
 
@@ -240,7 +242,7 @@ pub struct ClothCollision {
     /// How far particles are kept from collider surfaces, in m (≥ 0).
     pub thickness: f32,
     /// Whether the implicit integrators hold contacts inside their solve
-    /// ([`contacts`](crate::sim::integrate::implicit::contacts)), as they do by
+    /// (`contacts`), as they do by
     /// default. Off, contacts are only pushed out after the step, as the
     /// explicit integrators' are after each substep: at one step per frame
     /// a drape then slides off a ball and strains in a ring at the edge of
@@ -285,7 +287,7 @@ impl Default for ClothSelfCollision {
 
 /// Buffers of the self-collision hash.
 #[derive(Component, Clone, Debug, Default)]
-pub struct SelfCollisionScratch(pub SelfCollisionBuffers);
+pub(crate) struct SelfCollisionScratch(pub(crate) SelfCollisionBuffers);
 
 /// Running totals of the collision work, to see (and test) that a scene
 /// without colliders does none.
@@ -314,7 +316,7 @@ pub struct ClothCollisionStats {
 /// Adds the collision resources and systems (called by `ClothPlugin`).
 pub(crate) fn configure(app: &mut App, schedule: Interned<dyn ScheduleLabel>) {
     app.init_resource::<ClothCollisionStats>()
-        .init_resource::<ColliderScene>()
+        .init_resource::<ClothColliderScene>()
         .init_resource::<ClothContactImpulses>()
         .init_resource::<ClothObstacles>()
         .register_type::<ClothToClothCollision>()
@@ -322,8 +324,8 @@ pub(crate) fn configure(app: &mut App, schedule: Interned<dyn ScheduleLabel>) {
         .register_type::<ClothCollision>()
         .register_type::<ClothSelfCollision>()
         .register_type::<ClothCollisionStats>()
-        .register_type::<ContactLayers>()
-        .register_type::<ReportClothImpulses>()
+        .register_type::<ClothContactLayers>()
+        .register_type::<ClothReportImpulses>()
         .configure_sets(schedule, ClothColliderSources.in_set(ClothSystems::Prepare))
         .add_systems(
             schedule,
@@ -347,9 +349,9 @@ type OwnColliders = (
     Entity,
     &'static ClothCollider,
     WorldPose,
-    &'static mut ColliderMotion,
-    Option<&'static ContactLayers>,
-    Has<ReportClothImpulses>,
+    &'static mut ClothColliderMotion,
+    Option<&'static ClothContactLayers>,
+    Has<ClothReportImpulses>,
 );
 
 /// The [`ClothCollider`] source, in [`ClothColliderSources`]: every valid
@@ -357,7 +359,7 @@ type OwnColliders = (
 fn gather_colliders(
     _main: crate::plugin::schedule::MainThread,
     mut colliders: Query<OwnColliders>,
-    mut scene: ResMut<ColliderScene>,
+    mut scene: ResMut<ClothColliderScene>,
 ) {
     for (entity, collider, pose, mut motion, layers, feedback) in &mut colliders {
         if let Err(error) = collider.validate() {
@@ -382,7 +384,7 @@ fn gather_colliders(
 }
 
 /// Run condition of [`clear_scene`]: there is something to clear.
-fn scene_in_use(scene: Res<ColliderScene>, impulses: Res<ClothContactImpulses>) -> bool {
+fn scene_in_use(scene: Res<ClothColliderScene>, impulses: Res<ClothContactImpulses>) -> bool {
     !scene.colliders.is_empty() || !impulses.is_empty()
 }
 
@@ -390,7 +392,7 @@ fn scene_in_use(scene: Res<ColliderScene>, impulses: Res<ClothContactImpulses>) 
 /// run.
 fn clear_scene(
     _main: crate::plugin::schedule::MainThread,
-    mut scene: ResMut<ColliderScene>,
+    mut scene: ResMut<ClothColliderScene>,
     mut impulses: ResMut<ClothContactImpulses>,
 ) {
     scene.colliders.clear();
@@ -399,7 +401,7 @@ fn clear_scene(
 
 /// Run condition of [`seed_pass`]: the scene has a mesh collider (only
 /// those take part), so that a scene of analytic shapes costs it nothing.
-fn mesh_in_scene(scene: Res<ColliderScene>) -> bool {
+fn mesh_in_scene(scene: Res<ClothColliderScene>) -> bool {
     scene
         .colliders
         .iter()
@@ -411,7 +413,7 @@ type SeedQuery = (
     &'static Cloth,
     &'static mut ClothParticles,
     Option<&'static ClothCollision>,
-    Option<&'static ContactLayers>,
+    Option<&'static ClothContactLayers>,
     &'static crate::plugin::sleep::ClothSleep,
 );
 
@@ -420,7 +422,7 @@ type SeedQuery = (
 fn seed_pass(
     _main: crate::plugin::schedule::MainThread,
     time: Res<Time<Fixed>>,
-    scene: Res<ColliderScene>,
+    scene: Res<ClothColliderScene>,
     mut cloths: Query<SeedQuery>,
     mut stats: ResMut<ClothCollisionStats>,
 ) {

@@ -1,4 +1,4 @@
-//! The collider pipeline: the [`ColliderScene`] every source feeds in
+//! The collider pipeline: the [`ClothColliderScene`] every source feeds in
 //! [`ClothColliderSources`], and the [`ClothContactImpulses`] the step
 //! reports back for bridges to apply.
 
@@ -14,7 +14,7 @@ use crate::sim::integrate::implicit::SolveBody;
 
 /// The system set, in [`ClothSystems::Prepare`](crate::plugin::schedule::ClothSystems::Prepare),
 /// in which collider sources push this step's colliders into the
-/// [`ColliderScene`]: the crate's own [`ClothCollider`](super::ClothCollider)s,
+/// [`ClothColliderScene`]: the crate's own [`ClothCollider`](super::ClothCollider)s,
 /// the avian and rapier bridges, and any of a game's own. The scene is
 /// emptied just before the set runs.
 ///
@@ -22,12 +22,12 @@ use crate::sim::integrate::implicit::SolveBody;
 /// # use bevy::prelude::*;
 /// # use bevy::math::Isometry3d;
 /// # use bevy_cloth::prelude::*;
-/// # use bevy_cloth::plugin::collision::{ClothColliderSources, ColliderScene, ColliderShape, SceneCollider, Shape};
+/// # use bevy_cloth::plugin::collision::{ClothColliderSources, ClothColliderScene, ColliderShape, SceneCollider, Shape};
 /// /// A game's own obstacle: a ball that follows a scripted path.
 /// #[derive(Component)]
 /// struct Boulder { radius: f32, now: Vec3, next: Vec3 }
 ///
-/// fn boulders(boulders: Query<(Entity, &Boulder)>, mut scene: ResMut<ColliderScene>) {
+/// fn boulders(boulders: Query<(Entity, &Boulder)>, mut scene: ResMut<ClothColliderScene>) {
 ///     for (entity, b) in &boulders {
 ///         let shape = ColliderShape::Analytic(Shape::Sphere { radius: b.radius });
 ///         let (start, end) = (Isometry3d::from_translation(b.now), Isometry3d::from_translation(b.next));
@@ -50,14 +50,14 @@ pub struct ClothColliderSources;
 /// Without it, an entity is in every layer and meets every layer.
 #[derive(Component, Clone, Copy, Debug, PartialEq, Eq, Hash, Reflect)]
 #[reflect(Component, Default, Debug)]
-pub struct ContactLayers {
+pub struct ClothContactLayers {
     /// The layers it is in.
     pub memberships: u32,
     /// The layers it meets.
     pub filters: u32,
 }
 
-impl ContactLayers {
+impl ClothContactLayers {
     /// In every layer, meeting every layer.
     pub const ALL: Self = Self {
         memberships: u32::MAX,
@@ -78,14 +78,14 @@ impl ContactLayers {
     }
 }
 
-impl Default for ContactLayers {
+impl Default for ClothContactLayers {
     fn default() -> Self {
         Self::ALL
     }
 }
 
 /// A collider over the current fixed step, as a source hands it to the
-/// [`ColliderScene`].
+/// [`ClothColliderScene`].
 #[derive(Clone, Debug)]
 #[non_exhaustive]
 pub struct SceneCollider {
@@ -110,13 +110,13 @@ pub struct SceneCollider {
     /// contact thickness: a rounded box, a sphere-swept mesh.
     pub margin: f32,
     /// The collider's layers.
-    pub layers: ContactLayers,
+    pub layers: ClothContactLayers,
     /// Whether the step measures the impulses the cloth gives it
     /// ([`ClothContactImpulses`]): on for bodies that feel the cloth.
     pub feedback: bool,
     /// The mass (kg) of the body that gives way when the cloth pushes it,
     /// taken into the implicit solve
-    /// ([`contacts`](crate::sim::integrate::implicit::contacts)); infinite
+    /// (`contacts`); infinite
     /// (the default) for a collider that moves as it was going to
     /// whatever the cloth does.
     pub mass: f32,
@@ -149,7 +149,7 @@ impl SceneCollider {
             friction: 0.4,
             restitution: 0.0,
             margin: 0.0,
-            layers: ContactLayers::ALL,
+            layers: ClothContactLayers::ALL,
             feedback: false,
             mass: f32::INFINITY,
             centre: Vec3::ZERO,
@@ -180,7 +180,7 @@ impl SceneCollider {
     }
 
     /// In `layers`.
-    pub fn with_layers(mut self, layers: ContactLayers) -> Self {
+    pub fn with_layers(mut self, layers: ClothContactLayers) -> Self {
         self.layers = layers;
         self
     }
@@ -306,12 +306,12 @@ impl SceneCollider {
 /// The colliders of the current fixed step, fed by every source in
 /// [`ClothColliderSources`].
 #[derive(Resource, Clone, Debug, Default)]
-pub struct ColliderScene {
+pub struct ClothColliderScene {
     /// Every valid collider with its poses over the step.
     pub colliders: Vec<SceneCollider>,
 }
 
-impl ColliderScene {
+impl ClothColliderScene {
     /// Adds `collider` when it is valid ([`SceneCollider::validate`]);
     /// otherwise leaves the scene as it was and says why.
     pub fn push(&mut self, collider: SceneCollider) -> Result<(), ClothError> {
@@ -425,4 +425,4 @@ impl ClothContactImpulses {
 /// dynamic bodies by itself.
 #[derive(Component, Clone, Copy, Debug, Default, Reflect)]
 #[reflect(Component, Default)]
-pub struct ReportClothImpulses;
+pub struct ClothReportImpulses;

@@ -5,7 +5,7 @@ use bevy::ecs::change_detection::Tick;
 use bevy::math::{Isometry3d, Vec3};
 use bevy::prelude::Entity;
 
-use super::{ColliderScene, ContactLayers};
+use super::{ClothColliderScene, ClothContactLayers};
 use crate::plugin::sleep::Change;
 use crate::sim::sleep::SleepSettings;
 
@@ -33,8 +33,8 @@ impl SleepWatch {
     /// feels the cloth (a body that must not lose its support), and whether
     /// one moves over this step by more than `tolerance` ([`moved`]).
     fn gather(
-        scene: &ColliderScene,
-        (bounds, layers, tolerance): ((Vec3, Vec3), ContactLayers, f32),
+        scene: &ClothColliderScene,
+        (bounds, layers, tolerance): ((Vec3, Vec3), ClothContactLayers, f32),
         out: &mut Vec<(Entity, Isometry3d)>,
     ) -> (bool, bool) {
         out.clear();
@@ -56,9 +56,9 @@ impl SleepWatch {
     /// awake: a body that feels the cloth is there.
     pub(crate) fn fall_asleep(
         &mut self,
-        scene: &ColliderScene,
+        scene: &ClothColliderScene,
         bounds: (Vec3, Vec3),
-        layers: ContactLayers,
+        layers: ClothContactLayers,
         tick: Tick,
     ) -> bool {
         self.bounds = bounds;
@@ -74,8 +74,8 @@ impl SleepWatch {
     /// since it fell asleep) as [`moved`] has it.
     pub(crate) fn scene_changed(
         &mut self,
-        scene: &ColliderScene,
-        layers: ContactLayers,
+        scene: &ClothColliderScene,
+        layers: ClothContactLayers,
         tolerance: f32,
     ) -> bool {
         let mut now = std::mem::take(&mut self.now);
@@ -110,8 +110,8 @@ mod tests {
     use crate::plugin::collision::{ColliderShape, SceneCollider, Shape};
     use bevy::math::Quat;
 
-    fn scene(poses: &[(u32, Isometry3d, Isometry3d)]) -> ColliderScene {
-        let mut scene = ColliderScene::default();
+    fn scene(poses: &[(u32, Isometry3d, Isometry3d)]) -> ClothColliderScene {
+        let mut scene = ClothColliderScene::default();
         for &(e, start, end) in poses {
             let shape = ColliderShape::Analytic(Shape::Sphere { radius: 0.1 });
             scene
@@ -132,7 +132,7 @@ mod tests {
         let bounds = (Vec3::splat(-1.0), Vec3::splat(1.0));
         let mut watch = SleepWatch::default();
         let tick = Tick::new(1);
-        let all = ContactLayers::ALL;
+        let all = ClothContactLayers::ALL;
         assert!(watch.fall_asleep(&scene(&[(1, still, still)]), bounds, all, tick));
         assert!(!watch.scene_changed(&scene(&[(1, still, still)]), all, 1e-4));
         // Gone, doubled, replaced, moving, moved since, turned.
@@ -156,7 +156,7 @@ mod tests {
     fn a_body_that_feels_the_cloth_keeps_it_awake() {
         let still = Isometry3d::from_translation(Vec3::ZERO);
         let shape = ColliderShape::Analytic(Shape::Sphere { radius: 0.1 });
-        let mut scene = ColliderScene::default();
+        let mut scene = ClothColliderScene::default();
         scene
             .push(
                 SceneCollider::new(Entity::from_raw_u32(1).unwrap(), shape, still, still)
@@ -165,7 +165,7 @@ mod tests {
             .unwrap();
         let bounds = (Vec3::splat(-1.0), Vec3::splat(1.0));
         let mut watch = SleepWatch::default();
-        assert!(!watch.fall_asleep(&scene, bounds, ContactLayers::ALL, Tick::new(1)));
+        assert!(!watch.fall_asleep(&scene, bounds, ClothContactLayers::ALL, Tick::new(1)));
     }
 
     #[test]

@@ -1,9 +1,9 @@
 //! An egui panel to steer every cloth (feature `egui`): [`ClothPanelPlugin`].
 //!
 //! It shows the settings of the first cloth that has its own
-//! [`ClothSettings`], or [`ClothDefaults`] when none has, so that it shows
+//! [`ClothSettings`], or [`ClothSettingsDefaults`] when none has, so that it shows
 //! what runs. A change made in it is copied, field by field and only the
-//! fields it shows, into [`ClothDefaults`] and every cloth's own settings;
+//! fields it shows, into [`ClothSettingsDefaults`] and every cloth's own settings;
 //! the model can be switched only while no cloth has its own settings, so
 //! two cloths that differ by model (or by anything the panel does not show)
 //! keep differing. It shows the live
@@ -17,7 +17,7 @@ use bevy_egui::{EguiContexts, EguiPrimaryContextPass, egui};
 
 use crate::plugin::components::Cloth;
 use crate::plugin::components::ClothParticles;
-use crate::plugin::components::{ClothDefaults, ClothSettings};
+use crate::plugin::components::{ClothSettings, ClothSettingsDefaults};
 use crate::plugin::diagnostics::{
     KINETIC_ENERGY, MAX_STRAIN, SOLVER_ITERATIONS, STEP_TIME, SUBSTEPS,
 };
@@ -142,7 +142,7 @@ fn figures(value: impl Fn(&DiagnosticPath) -> Option<f64>, any_cloth: bool) -> V
 fn panel(
     shown: Res<ClothPanel>,
     mut contexts: EguiContexts,
-    mut defaults: ResMut<ClothDefaults>,
+    mut defaults: ResMut<ClothSettingsDefaults>,
     mut wind: ResMut<ClothWind>,
     mut pause: ResMut<ClothPause>,
     store: Option<Res<DiagnosticsStore>>,

@@ -731,7 +731,7 @@ pub fn undo_crossings(
 
 mod edge_pass;
 use edge_pass::EdgePairs;
-pub use edge_pass::{EDGE_THICKNESS, predict_edge_contacts, undo_edge_crossings};
+pub use edge_pass::{predict_edge_contacts, undo_edge_crossings};
 
 #[cfg(test)]
 mod tests;

@@ -11,7 +11,7 @@
 //!    on the exact distance; mesh: segment–triangle crossing, else
 //!    vertex–triangle proximity). A particle that started within `δ` and
 //!    ends clear is leaving and left alone.
-//! 2. **Respond** with [`respond`]: relative velocity, normal part reversed
+//! 2. **Respond** with `respond`: relative velocity, normal part reversed
 //!    with restitution, Coulomb friction on the tangential part.
 //! 3. **Place** the particle at `p_c` plus the tangential part of the rest of
 //!    its motion scaled by the same friction factor (so static friction
@@ -224,7 +224,7 @@ pub fn collide_particles(
 }
 
 /// The paper's pass for mesh colliders (MODEL.md §8.1): every cloth triangle
-/// that intersects a collider triangle ([`triangles_intersect`], both
+/// that intersects a collider triangle (`triangles_intersect`, both
 /// directions) has the velocities of its three free vertices answered with
 /// the corrected response of §8.2. Positions are left to the vertex pass.
 ///

@@ -7,18 +7,18 @@
 //! the components that place colliders in a scene live in
 //! [`plugin::collision`](crate::plugin::collision).
 
-pub mod ccd;
+pub(crate) mod ccd;
 mod cells;
-pub mod cloths;
+pub(crate) mod cloths;
 pub mod contact;
-pub mod edges;
-pub mod narrow;
+pub(crate) mod edges;
+pub(crate) mod narrow;
 pub mod predict;
-pub mod self_collision;
+pub(crate) mod self_collision;
 pub mod shapes;
 pub mod trimesh;
 
 pub use contact::Counts;
-pub use self_collision::SelfCollisionBuffers;
+pub(crate) use self_collision::SelfCollisionBuffers;
 pub use shapes::Shape;
 pub use trimesh::TriMesh;

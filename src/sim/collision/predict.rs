@@ -1,5 +1,5 @@
 //! The contacts an implicit step is to hold
-//! ([`integrate::implicit::contacts`](crate::sim::integrate::implicit::contacts)):
+//! (`integrate::implicit::contacts`):
 //! every free particle that touches a collider at the start of the step,
 //! or will within it if it keeps its velocity relative to the surface; next
 //! to a free body, every particle within reach of the two motions.

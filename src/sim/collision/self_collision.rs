@@ -6,7 +6,9 @@
 
 use bevy::math::Vec3;
 
-use super::ccd::{CrossingBuffers, prevent_crossings, split};
+#[cfg(test)]
+use super::ccd::prevent_crossings;
+use super::ccd::{CrossingBuffers, split};
 use super::cells::{cell_of, key};
 use super::contact::Counts;
 use super::trimesh::closest_point_on_triangle;
@@ -47,6 +49,7 @@ pub(super) fn barycentric(c: Vec3, [a, b, d]: [Vec3; 3]) -> [f32; 3] {
 /// does not stay on the wrong side. Then no particle passes through a
 /// triangle and no edge through an edge over the step, however far they
 /// moved ([`prevent_crossings`]).
+#[cfg(test)]
 pub fn self_collide(
     cloth: &impl Faces,
     start: &[Vec3],

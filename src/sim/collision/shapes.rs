@@ -3,7 +3,7 @@
 //!
 //! [`Shape::distance`] returns the signed distance in m (negative inside)
 //! and the outward unit normal of the closest surface point. Every function
-//! here is an exact Euclidean distance, so [`sweep`] can advance along a
+//! here is an exact Euclidean distance, so `sweep` can advance along a
 //! segment by the distance without skipping the surface (conservative
 //! advancement).
 
@@ -235,7 +235,7 @@ fn cylinder_distance(p: Vec3, radius: f32, half_height: f32) -> (f32, Vec3) {
 ///
 /// Spheres and planes are solved in closed form; the other shapes by
 /// conservative advancement (`advance`).
-pub fn sweep(shape: &Shape, p0: Vec3, p1: Vec3, margin: f32) -> Option<f32> {
+pub(crate) fn sweep(shape: &Shape, p0: Vec3, p1: Vec3, margin: f32) -> Option<f32> {
     // Contact within this much of the margin (m), as `advance` stops.
     let reach = margin + SWEEP_TOLERANCE;
     match *shape {

@@ -1,5 +1,5 @@
 //! The guard's check of a stepped cloth: non-finite values, strain and
-//! speed against the bounds ([`check`]), and how far a step may take them
+//! speed against the bounds ([`check_measured`]), and how far a step may take them
 //! before it counts as a divergence ([`Limits`]).
 //!
 //! What it may import: the links, the particles, the settings and the
@@ -14,17 +14,9 @@ use crate::sim::settings::GuardSettings;
 use crate::sim::team::{self, SPLIT_PARTICLES};
 
 /// Checks `particles` against `guard`'s bounds (`None`: all is well), as if
-/// the cloth were at rest before: no allowance for growth.
-pub fn check(
-    particles: &Particles,
-    connections: &Connections,
-    guard: &GuardSettings,
-) -> Option<Divergence> {
-    check_measured(particles, connections, guard, false).0
-}
-
-/// [`check`], and the largest Type 1 strain (as [`max_strain`]) if it got
-/// as far as measuring it: the state is finite and slow enough. With
+/// the cloth were at rest before (no allowance for growth), and gives the
+/// largest Type 1 strain (as [`max_strain`]) if it got as far as measuring
+/// it: the state is finite and slow enough. With
 /// `helper`, a cloth of [`SPLIT_PARTICLES`] or more has its shear links
 /// measured on the helper thread meanwhile, to the same result (the
 /// largest of two largest).
@@ -89,7 +81,7 @@ pub(super) fn fastest(v: &[Vec3], w: &[f32], pinned: bool) -> f32 {
 /// from, and beyond what the pinned particles' prescribed motion can cause
 /// in one step.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Limits {
+pub(crate) struct Limits {
     /// Largest Type 1 strain (dimensionless).
     pub strain: f32,
     /// Largest free particle speed (m/s).

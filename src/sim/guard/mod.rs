@@ -12,7 +12,7 @@
 //!    faster than [`GuardSettings::max_speed`]. Strain and speed count only
 //!    when they *grew* beyond what the step started from and beyond what
 //!    pinned particles moving under a grab or an anchor can cause in one
-//!    step ([`Limits`]): a cloth a kinematic grab stretched past the bound
+//!    step: a cloth a kinematic grab stretched past the bound
 //!    is not diverging, so it steps on, and relaxes once let go.
 //! 3. **Retry.** A tripped step is undone and redone with twice the
 //!    substeps, up to [`GuardSettings::retries`] times and at most
@@ -20,16 +20,16 @@
 //!    the last retry switches to the [`GuardSettings::fallback`] integrator
 //!    (backward Euler by default, stable at any step).
 //! 4. **Strain spikes.** An implicit step that strained a Type 1 link past
-//!    [`SPIKE_STRAIN`] and [`SPIKE_GROWTH`] times what the last step left
+//!    15 % and twice what the last step left
 //!    did so because it was linearised where it started: a stiff or fine
 //!    sheet let go horizontal pulls on its pins with no stiffness across
 //!    its plane in the linearisation, and a 256×256 cotton sheet's first
 //!    step stretched its corner links 21 %. The strain limit
-//!    ([`ImplicitParams::strain_limit`](crate::sim::settings::ImplicitParams::strain_limit),
+//!    ([`ImplicitSettings::strain_limit`](crate::sim::settings::ImplicitSettings::strain_limit),
 //!    after any Newton corrections) shortens such links again. A step it
 //!    could not bring below the spike (turned off, or contacts held in the
 //!    solve) is undone and redone in twice the substeps, up to
-//!    [`SPIKE_SUBSTEPS`], quietly (no message: nothing diverged), and the
+//!    8, quietly (no message: nothing diverged), and the
 //!    boost relaxes as below.
 //! 5. **Never frozen.** If the last retry still trips on a finite state
 //!    (violent, not diverging), it is kept with the free particles' speeds
@@ -39,7 +39,7 @@
 //!    starts from a finite state with an integrator stable at any step: a
 //!    cloth is held back for one step at most. A cloth whose worst link its
 //!    contacts hold stretched past the bound, and not relaxing by
-//!    `SNAG_CHANGE` (0.1 %) a step, for [`SNAGGED_STEPS`] steps (caught on
+//!    0.1 % a step, for 10 steps (caught on
 //!    a thin collider, a link through it) takes one step without contacts.
 //!
 //! The stronger setting stays in force for that cloth for a while (see
@@ -50,10 +50,10 @@
 //! A boost is for the transient that tripped it (an impact, a violent
 //! grab), so it does not last. With
 //! [`AdaptiveSubsteps`](crate::sim::adaptive::AdaptiveSubsteps) on, the estimate
-//! follows the cloth's state and the boost halves every [`RELAX_AFTER`]
+//! follows the cloth's state and the boost halves every 10
 //! clean steps until the estimate alone decides again. Without it, the
 //! configured substeps may simply be too few, so the guard probes: it
-//! halves the boost after [`RELAX_AFTER_FIXED`] clean steps, and every
+//! halves the boost after 60 clean steps, and every
 //! further trip doubles that wait (up to 2¹⁰ times), so a cloth that keeps
 //! tripping settles on its boost and pays a redone step ever more rarely.
 
@@ -74,16 +74,14 @@ pub use crate::sim::settings::{Fallback, GuardSettings};
 use crate::sim::settings::{Integrator, MAX_SUBSTEPS, SimSettings};
 use crate::sim::step::{ContactHook, Substep, step_cloth_with};
 
+pub(crate) use check::Limits;
 pub(crate) use check::check_measured;
-pub use check::{Limits, check};
 use check::{fastest, pinned_reach};
 pub use input::StepInput;
 use input::{finite_external, repair};
+pub use state::GuardState;
 use state::SNAG_CHANGE;
-pub use state::{
-    GuardState, RELAX_AFTER, RELAX_AFTER_FIXED, SNAGGED_STEPS, SPIKE_GROWTH, SPIKE_STRAIN,
-    SPIKE_SUBSTEPS,
-};
+pub(crate) use state::{SNAGGED_STEPS, SPIKE_GROWTH, SPIKE_STRAIN, SPIKE_SUBSTEPS};
 
 /// Why the guard tripped.
 #[derive(Clone, Copy, Debug, PartialEq, Reflect)]

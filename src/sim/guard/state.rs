@@ -33,38 +33,38 @@ pub struct GuardState {
 /// Fixed steps a cloth may stay strained above the guard's bound without
 /// relaxing while it has colliders near, before a step without contacts
 /// lets it off.
-pub const SNAGGED_STEPS: u32 = 10;
+pub(crate) const SNAGGED_STEPS: u32 = 10;
 
 /// The Type 1 strain (dimensionless) past which an implicit step that
 /// raised its cloth's strain [`SPIKE_GROWTH`] times over is taken again in
 /// twice the substeps.
-pub const SPIKE_STRAIN: f32 = 0.15;
+pub(crate) const SPIKE_STRAIN: f32 = 0.15;
 
 /// How many times the strain the last step left a spike must reach.
-pub const SPIKE_GROWTH: f32 = 2.0;
+pub(crate) const SPIKE_GROWTH: f32 = 2.0;
 
 /// Substeps a spike's retries go up to at most.
-pub const SPIKE_SUBSTEPS: u32 = 8;
+pub(crate) const SPIKE_SUBSTEPS: u32 = 8;
 
 /// Smallest relative fall of the worst strain in a step that counts as
 /// relaxing (dimensionless): a snagged cloth's trembles less than this.
 pub(super) const SNAG_CHANGE: f32 = 1e-3;
 
 /// Clean fixed steps after which an adaptive cloth's boost halves.
-pub const RELAX_AFTER: u32 = 10;
+pub(crate) const RELAX_AFTER: u32 = 10;
 
 /// Clean fixed steps after which the boost of a cloth without adaptive
 /// substeps first halves (1 s at 60 Hz); each later trip doubles it.
-pub const RELAX_AFTER_FIXED: u32 = 60;
+pub(crate) const RELAX_AFTER_FIXED: u32 = 60;
 
 /// The most doublings of [`RELAX_AFTER_FIXED`] (about 17 min at 60 Hz).
 pub(super) const MAX_BACKOFF: u32 = 10;
 
 impl GuardState {
     /// One clean fixed step. A boost is only needed through the transient
-    /// that tripped it: after enough clean steps ([`RELAX_AFTER`] with
-    /// `adaptive` substeps, else [`RELAX_AFTER_FIXED`] doubled for every
-    /// trip after the first) the boosted substeps halve; the boost ends
+    /// that tripped it: after enough clean steps (10 with
+    /// `adaptive` substeps, else 60 doubled for every trip after the
+    /// first) the boosted substeps halve; the boost ends
     /// when they reach the configured substeps `floor` or the configured
     /// `integrator` is back.
     pub fn relax(&mut self, integrator: Integrator, floor: u32, adaptive: bool) {

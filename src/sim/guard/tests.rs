@@ -1,6 +1,6 @@
 //! The guard's limits and the relaxing of its boost.
 
-use super::state::MAX_BACKOFF;
+use super::state::{MAX_BACKOFF, RELAX_AFTER, RELAX_AFTER_FIXED};
 use super::*;
 use crate::sim::connections::Link;
 

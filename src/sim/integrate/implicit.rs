@@ -4,14 +4,14 @@
 //! coarse correction over aggregates of particles: a multigrid V-cycle over
 //! grid squares for grid cloths (`coarse.rs`), over groups grown over the
 //! links for other cloths (`mesh_coarse.rs`;
-//! [`ImplicitParams::coarse_grid`](crate::sim::settings::ImplicitParams::coarse_grid)).
+//! [`ImplicitSettings::coarse_grid`](crate::sim::settings::ImplicitSettings::coarse_grid)).
 //! The operator is stored by grid offset, so its product runs as SIMD loops
 //! (`operator.rs`); the pairs of other cloths run as one list over the
 //! vector copied particle by particle. From 2048 particles the iterations
 //! of a grid cloth are shared with a
 //! helper thread, each running every pass on half the particles
 //! (`halves.rs`, `crate::sim::team`;
-//! [`ImplicitParams::helper_thread`](crate::sim::settings::ImplicitParams::helper_thread)),
+//! [`ImplicitSettings::helper_thread`](crate::sim::settings::ImplicitSettings::helper_thread)),
 //! to the same bits as on one thread.
 //!
 //! Both solve `A Δv = b` with `A = M(1 + αc) − α D − β K`, where `K = ∂F/∂x`
@@ -38,19 +38,22 @@ use coarse::Coarse;
 use halves::Halves;
 use mesh_coarse::MeshCoarse;
 
-pub use contacts::{ContactBuffers, Hold, NO_BODY, SolveBody, SolveContact};
+pub(crate) use contacts::NO_BODY;
+pub use contacts::{ContactBuffers, Hold, SolveBody, SolveContact};
 
 use crate::sim::team;
 use operator::{Operator, Soa, dot};
 
 use crate::sim::model::Dynamics;
-use crate::sim::model::jacobian::{Block, add_k_times, assemble_streamed};
+#[cfg(test)]
+use crate::sim::model::jacobian::add_k_times;
+use crate::sim::model::jacobian::{Block, assemble_streamed};
 use crate::sim::model::streams::ForceStreams;
-use crate::sim::settings::{ImplicitParams, SlackStiffness};
+use crate::sim::settings::{ImplicitSettings, SlackStiffness};
 
 /// Preallocated state of the implicit integrators for one cloth.
 #[derive(Clone, Debug, Default)]
-pub struct ImplicitBuffers {
+pub(crate) struct ImplicitBuffers {
     /// Jacobian blocks of the current step's links outside the streams
     /// (crease springs, links of an unusual step).
     pub blocks: Vec<Block>,
@@ -103,7 +106,7 @@ pub struct ImplicitBuffers {
     /// `√(rᵀP⁻¹r / bᵀP⁻¹b)` at the end of the last solve (dimensionless).
     pub last_residual: f32,
     /// Threads the last solve's iterations ran on: 2 when it shared them
-    /// with the helper thread ([`ImplicitParams::helper_thread`]).
+    /// with the helper thread ([`ImplicitSettings::helper_thread`]).
     pub last_threads: u32,
     /// The last steps' solutions, for the next solve's starting guess.
     past: past::Past,
@@ -195,7 +198,8 @@ impl ImplicitBuffers {
 }
 
 /// `out = K w`: `(K w)_a = Σ H (w_b − w_a)`, `(K w)_b = Σ H (w_a − w_b)`.
-pub fn k_times(blocks: &[Block], w: &[Vec3], out: &mut [Vec3]) {
+#[cfg(test)]
+pub(crate) fn k_times(blocks: &[Block], w: &[Vec3], out: &mut [Vec3]) {
     out.fill(Vec3::ZERO);
     add_k_times(blocks, w, out);
 }
@@ -204,10 +208,10 @@ pub fn k_times(blocks: &[Block], w: &[Vec3], out: &mut [Vec3]) {
 /// preconditioner `P⁻¹ = B⁻¹ (+ the coarse correction)`. It starts from the
 /// last step's `Δv` when there is one and it is closer than `Δv = 0` (a
 /// warm start), after hard solves from the best combination of the last
-/// steps' solutions ([`past`], [`ImplicitParams::past_solutions`]), and
+/// steps' solutions ([`past`], [`ImplicitSettings::past_solutions`]), and
 /// stops once `rᵀP⁻¹r ≤ ε² bᵀP⁻¹b` either way.
 /// Returns (iterations, relative residual).
-fn pcg(params: &ImplicitParams, buffers: &mut ImplicitBuffers) -> (u32, f32) {
+fn pcg(params: &ImplicitSettings, buffers: &mut ImplicitBuffers) -> (u32, f32) {
     // Compiled for the CPU's vectors, so that its vector updates, the
     // preconditioner and the coarse correction run as wide as they can.
     pcg_at(crate::simd::level(), params, buffers)
@@ -215,12 +219,12 @@ fn pcg(params: &ImplicitParams, buffers: &mut ImplicitBuffers) -> (u32, f32) {
 
 crate::simd::multiversion! {
     /// [`pcg_inner`] compiled for a SIMD level.
-    fn pcg_at(params: &ImplicitParams, buffers: &mut ImplicitBuffers) -> (u32, f32) = pcg_inner;
+    fn pcg_at(params: &ImplicitSettings, buffers: &mut ImplicitBuffers) -> (u32, f32) = pcg_inner;
 }
 
 /// The body of [`pcg`], inlined into each of its builds.
 #[inline(always)]
-fn pcg_inner(params: &ImplicitParams, buffers: &mut ImplicitBuffers) -> (u32, f32) {
+fn pcg_inner(params: &ImplicitSettings, buffers: &mut ImplicitBuffers) -> (u32, f32) {
     let ImplicitBuffers {
         op,
         rhs,
@@ -861,7 +865,7 @@ pub fn bdf2(
 /// The factor on both solver tolerances of the solve of a
 /// [`newton_correction`] (dimensionless): 0.1 solves it ten times tighter
 /// than a step.
-pub const NEWTON_TOLERANCE: f32 = 0.1;
+pub(crate) const NEWTON_TOLERANCE: f32 = 0.1;
 
 /// One more Newton iteration of the last implicit step, at the state
 /// `(x, v)` it left (m, m/s): with that step written as `x₁ = a + γv₁` and
@@ -876,7 +880,7 @@ pub const NEWTON_TOLERANCE: f32 = 0.1;
 /// the linearisation and the links overshoot; an iteration at the end
 /// brings them back. Call it only right after [`backward_euler`] or
 /// [`bdf2`] with the same `dynamics`.
-pub fn newton_correction(
+pub(crate) fn newton_correction(
     dynamics: &Dynamics,
     x: &mut [Vec3],
     v: &mut [Vec3],
@@ -920,7 +924,7 @@ mod tests;
 
 mod bodies;
 mod coarse;
-pub mod contacts;
+pub(crate) mod contacts;
 mod halves;
 mod mesh_coarse;
 mod operator;

@@ -10,25 +10,25 @@
 //!
 //! | integrator | evaluations | order | stable for (one mode, MODEL.md §6.4) |
 //! |---|---|---|---|
-//! | [`explicit_euler`] | 1 | 1 | `dt ≤ c/ω²` |
-//! | [`symplectic_euler`] | 1 | 1 | `dt ≲ 2/ω` |
-//! | [`rk4`] | 4 | 4 | `dt ≲ 2.83/ω` |
-//! | [`backward_euler`] | 1 + a linear solve | 1 | any `dt` |
-//! | [`bdf2`] | 1 + a linear solve | 2 | any `dt` |
+//! | `explicit_euler` | 1 | 1 | `dt ≤ c/ω²` |
+//! | `symplectic_euler` | 1 | 1 | `dt ≲ 2/ω` |
+//! | `rk4` | 4 | 4 | `dt ≲ 2.83/ω` |
+//! | `backward_euler` | 1 + a linear solve | 1 | any `dt` |
+//! | `bdf2` | 1 + a linear solve | 2 | any `dt` |
 //!
 //! Pinned particles have zero acceleration, so every scheme moves them
 //! exactly along their prescribed velocity.
 
 mod explicit_euler;
-pub mod implicit;
+pub(crate) mod implicit;
 pub(crate) mod refine;
 mod rk4;
 mod symplectic_euler;
 
-pub use explicit_euler::explicit_euler;
-pub use implicit::{ImplicitBuffers, backward_euler, bdf2};
-pub use rk4::rk4;
-pub use symplectic_euler::symplectic_euler;
+pub(crate) use explicit_euler::explicit_euler;
+pub(crate) use implicit::{ImplicitBuffers, backward_euler, bdf2};
+pub(crate) use rk4::rk4;
+pub(crate) use symplectic_euler::symplectic_euler;
 
 use bevy::math::Vec3;
 
@@ -132,21 +132,6 @@ impl StepBuffers {
     }
 }
 
-/// Advances `(x, v)` by `dt` seconds with `integrator` under `dynamics`.
-/// `buffers` must have been sized for `x.len()` particles (see
-/// [`StepBuffers::resize`]); the implicit integrators size their own.
-pub fn step(
-    integrator: Integrator,
-    dynamics: &Dynamics,
-    x: &mut [Vec3],
-    v: &mut [Vec3],
-    dt: f32,
-    buffers: &mut StepBuffers,
-) {
-    sync(integrator, dynamics, x.len(), buffers);
-    step_synced(integrator, dynamics, x, v, dt, buffers);
-}
-
 /// Brings the force streams of an explicit integrator up to date with the
 /// connections of `dynamics`, for `n` particles.
 pub(crate) fn sync(integrator: Integrator, dynamics: &Dynamics, n: usize, b: &mut StepBuffers) {
@@ -155,7 +140,7 @@ pub(crate) fn sync(integrator: Integrator, dynamics: &Dynamics, n: usize, b: &mu
     }
 }
 
-/// [`step`] after a [`sync`] since the connections last changed: the
+/// One step of `integrator` after a [`sync`] since the connections last changed: the
 /// connections are compared once per fixed step, not once per substep.
 pub(crate) fn step_synced(
     integrator: Integrator,

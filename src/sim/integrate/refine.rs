@@ -61,12 +61,12 @@ fn strain_of(particles: &Particles, connections: &Connections) -> Option<f32> {
 
 /// Extra Newton iterations of an implicit step whose worst Type 1 `strain`
 /// (dimensionless; `None`: not finite) is past
-/// [`ImplicitParams::newton_strain`](crate::sim::settings::ImplicitParams::newton_strain)
+/// [`ImplicitSettings::newton_strain`](crate::sim::settings::ImplicitSettings::newton_strain)
 /// and a fifth more than the `last` step left, each followed by
 /// `resolve_last` (the contacts over the last substep again, given the
 /// substep's start positions); an iteration that does not lower the strain
 /// is undone. Then, if a Type 1 link is still strained past
-/// [`ImplicitParams::strain_limit`](crate::sim::settings::ImplicitParams::strain_limit),
+/// [`ImplicitSettings::strain_limit`](crate::sim::settings::ImplicitSettings::strain_limit),
 /// the links are shortened to it ([`limit_strain`]), followed by
 /// `resolve_last`; sweeps that stop with a link still past the bound and
 /// less than half the worst excess taken off (links held stretched between

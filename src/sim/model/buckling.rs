@@ -7,11 +7,11 @@
 use std::sync::LazyLock;
 
 /// Connections shorter than this (m) are skipped: their direction is undefined.
-pub const MIN_LENGTH: f32 = 1e-9;
+pub(crate) const MIN_LENGTH: f32 = 1e-9;
 
 /// Number of pieces of the `g(s)` polynomial table on `[0, 1]`
 /// ([`BucklingTable`]).
-pub const TABLE_INTERVALS: usize = crate::simd::table::PIECES;
+pub(crate) const TABLE_INTERVALS: usize = crate::simd::table::PIECES;
 
 /// Degree of each piece of the table.
 const DEGREE: usize = crate::simd::table::DEGREE;
@@ -20,7 +20,7 @@ const DEGREE: usize = crate::simd::table::DEGREE;
 ///
 /// `sinc` falls strictly from 1 at θ = 0 to 0 at θ = π; `s` is clamped to
 /// `[0, 1]`.
-pub fn inverse_sinc(s: f64) -> f64 {
+pub(crate) fn inverse_sinc(s: f64) -> f64 {
     let s = s.clamp(0.0, 1.0);
     let (mut lo, mut hi) = (0.0_f64, std::f64::consts::PI);
     for _ in 0..64 {
@@ -81,7 +81,7 @@ pub struct BucklingTable {
 }
 
 /// The shared table, built on first use (160 bisections, well under 1 ms).
-pub static BUCKLING_TABLE: LazyLock<BucklingTable> = LazyLock::new(BucklingTable::new);
+pub(crate) static BUCKLING_TABLE: LazyLock<BucklingTable> = LazyLock::new(BucklingTable::new);
 
 impl BucklingTable {
     /// Fits every piece to the exact `g` (MODEL.md §3.3, §3.6a).
@@ -122,6 +122,7 @@ impl BucklingTable {
     }
 
     /// `g(s)` alone (dimensionless).
+    #[cfg(test)]
     #[inline]
     pub fn g(&self, s: f32) -> f32 {
         self.sample(s).0
@@ -168,7 +169,13 @@ impl Default for BucklingTable {
 /// `ℓ ≥ L`, otherwise `max((k_b/L²)g(ℓ/L), c_b(ℓ − L))`. `k_b` in N·m²,
 /// `c_b` in N/m.
 #[inline]
-pub fn type2_magnitude(table: &BucklingTable, len: f32, rest: f32, kb: f32, cb: f32) -> (f32, f32) {
+pub(crate) fn type2_magnitude(
+    table: &BucklingTable,
+    len: f32,
+    rest: f32,
+    kb: f32,
+    cb: f32,
+) -> (f32, f32) {
     if len >= rest {
         return (0.0, 0.0);
     }

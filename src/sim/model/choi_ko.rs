@@ -12,44 +12,42 @@
 //! [`buckling`](super::buckling), re-exported here) serves every rest
 //! length and every `k_b`.
 
-use bevy::math::Vec3;
-
-pub use super::buckling::{
-    BUCKLING_TABLE, BucklingTable, MIN_LENGTH, TABLE_INTERVALS, g_of_theta, inverse_sinc,
-    type2_magnitude,
-};
-use super::kernel::{self, Law, Target};
-use crate::sim::connections::Link;
-
-/// Adds the Type 1 (tension-only) forces of `links` to `f` (N).
-///
-/// `F_a = [k(ℓ − L) + k_d (v_ab·u)]·u` while `ℓ ≥ L`, else 0; `F_b = −F_a`.
-/// `k` in N/m; `k_d` in N·s/m is the optional axial pair damping of
-/// MODEL.md §4, applied only while the link is taut (a slack Type 1 link
-/// does not exist for the cloth).
-pub fn type1_forces(links: &[Link], k: f32, kd: f32, x: &[Vec3], v: &[Vec3], f: &mut [Vec3]) {
-    let mut out = Target { f, base: 0 };
-    kernel::pair_forces(&[(links, Law::Tension { k, kd })], x, v, &mut out);
-}
-
-/// Adds the Type 2 (buckling) forces of `links` to `f` (N); see
-/// [`type2_magnitude`]. `k_b` in N·m², `c_b` in N/m.
-pub fn type2_forces(
-    table: &BucklingTable,
-    links: &[Link],
-    kb: f32,
-    cb: f32,
-    x: &[Vec3],
-    f: &mut [Vec3],
-) {
-    let mut out = Target { f, base: 0 };
-    let law = Law::Buckling { table, kb, cb };
-    kernel::pair_forces(&[(links, law)], x, &[], &mut out);
-}
+pub(crate) use super::buckling::{BUCKLING_TABLE, BucklingTable, MIN_LENGTH, type2_magnitude};
 
 #[cfg(test)]
 mod tests {
+    use bevy::math::Vec3;
+
+    use super::super::buckling::{g_of_theta, inverse_sinc};
+    use super::super::kernel::{self, Law, Target};
     use super::*;
+    use crate::sim::connections::Link;
+
+    /// Adds the Type 1 (tension-only) forces of `links` to `f` (N).
+    ///
+    /// `F_a = [k(ℓ − L) + k_d (v_ab·u)]·u` while `ℓ ≥ L`, else 0; `F_b = −F_a`.
+    /// `k` in N/m; `k_d` in N·s/m is the optional axial pair damping of
+    /// MODEL.md §4, applied only while the link is taut (a slack Type 1 link
+    /// does not exist for the cloth).
+    fn type1_forces(links: &[Link], k: f32, kd: f32, x: &[Vec3], v: &[Vec3], f: &mut [Vec3]) {
+        let mut out = Target { f, base: 0 };
+        kernel::pair_forces(&[(links, Law::Tension { k, kd })], x, v, &mut out);
+    }
+
+    /// Adds the Type 2 (buckling) forces of `links` to `f` (N); see
+    /// [`type2_magnitude`]. `k_b` in N·m², `c_b` in N/m.
+    fn type2_forces(
+        table: &BucklingTable,
+        links: &[Link],
+        kb: f32,
+        cb: f32,
+        x: &[Vec3],
+        f: &mut [Vec3],
+    ) {
+        let mut out = Target { f, base: 0 };
+        let law = Law::Buckling { table, kb, cb };
+        kernel::pair_forces(&[(links, law)], x, &[], &mut out);
+    }
     use std::f64::consts::PI;
 
     #[test]

@@ -19,7 +19,9 @@
 //!   transverse term, negative, is clamped for a definite system; `Full`
 //!   keeps it), damping `D = k_d P_u`.
 
-use bevy::math::{Mat3, Vec3};
+#[cfg(test)]
+use bevy::math::Mat3;
+use bevy::math::Vec3;
 
 use super::choi_ko::{BUCKLING_TABLE, MIN_LENGTH, type2_magnitude};
 use super::kernel::Law;
@@ -49,14 +51,10 @@ pub struct Block {
 
 impl Block {
     /// `∂F_a/∂x_b` in N/m (symmetric).
+    #[cfg(test)]
     pub fn k(&self) -> Mat3 {
         let pu = outer(self.u);
         pu * self.axial + (Mat3::IDENTITY - pu) * self.transverse
-    }
-
-    /// `∂F_a/∂v_b` in N·s/m (symmetric).
-    pub fn d(&self) -> Mat3 {
-        outer(self.u) * self.damping
     }
 
     /// `∂F_a/∂x_b · w` (N for `w` in m).
@@ -66,6 +64,7 @@ impl Block {
     }
 }
 
+#[cfg(test)]
 fn outer(u: Vec3) -> Mat3 {
     Mat3::from_cols(u * u.x, u * u.y, u * u.z)
 }
@@ -147,6 +146,7 @@ fn buckle(
 /// the blocks of every active connection into `blocks` (cleared first; its
 /// capacity is reused, so a warm call does not allocate). `keep_slack`
 /// keeps the axial stiffness of slack Type 1 links (module docs).
+#[cfg(test)]
 pub fn assemble(
     settings: &SimSettings,
     connections: &Connections,

@@ -9,22 +9,20 @@
 //! term `k(1 − L/ℓ)` is negative), which is the "buckling instability" that
 //! Choi–Ko's tension-only/buckling split removes.
 
-use bevy::math::Vec3;
-
-use crate::sim::connections::Link;
-use crate::sim::model::kernel::{self, Law, Target};
-
-/// Adds the forces of two-sided damped springs to `f` (N).
-///
-/// `ks` in N/m, `kd` in N·s/m. Links shorter than 10⁻⁹ m are skipped.
-pub fn spring_forces(links: &[Link], ks: f32, kd: f32, x: &[Vec3], v: &[Vec3], f: &mut [Vec3]) {
-    let mut out = Target { f, base: 0 };
-    kernel::pair_forces(&[(links, Law::Spring { ks, kd })], x, v, &mut out);
-}
-
 #[cfg(test)]
 mod tests {
-    use super::*;
+    use bevy::math::Vec3;
+
+    use crate::sim::connections::Link;
+    use crate::sim::model::kernel::{self, Law, Target};
+
+    /// Adds the forces of two-sided damped springs to `f` (N).
+    ///
+    /// `ks` in N/m, `kd` in N·s/m. Links shorter than 10⁻⁹ m are skipped.
+    fn spring_forces(links: &[Link], ks: f32, kd: f32, x: &[Vec3], v: &[Vec3], f: &mut [Vec3]) {
+        let mut out = Target { f, base: 0 };
+        kernel::pair_forces(&[(links, Law::Spring { ks, kd })], x, v, &mut out);
+    }
 
     #[test]
     fn springs_push_when_compressed_and_pull_when_stretched() {

@@ -2,28 +2,29 @@
 //! foundations (`settings`, `connections`, `soa`, `simd`, `team`, `workers`) and
 //! nothing that schedules or steps a cloth.
 //!
-//! - [`choi_ko`]: Type 1 tension-only springs and Type 2 buckling links.
-//! - [`lander`]: two-sided damped springs (the paper's baseline).
-//! - [`Dynamics::accelerations`]: paper eq. 5, `a = M⁻¹F + g − c·v`, with
+//! - `choi_ko`: Type 1 tension-only springs and Type 2 buckling links.
+//! - `lander`: two-sided damped springs (the paper's baseline).
+//! - `Dynamics::accelerations`: paper eq. 5, `a = M⁻¹F + g − c·v`, with
 //!   pinned particles (inverse mass 0) held at zero acceleration.
 
-pub mod bands;
-pub mod buckling;
-pub mod choi_ko;
-pub mod jacobian;
-pub mod kernel;
-pub mod lander;
-pub mod streams;
+pub(crate) mod bands;
+pub(crate) mod buckling;
+pub(crate) mod choi_ko;
+pub(crate) mod jacobian;
+pub(crate) mod kernel;
+pub(crate) mod lander;
+pub(crate) mod streams;
 
 use bevy::math::Vec3;
 
 use crate::sim::connections::{Connections, Link};
-use crate::sim::settings::{ClothModel, SimSettings, SpringParams};
+use crate::sim::settings::{ClothModel, SimSettings, SpringSettings};
 use crate::sim::workers::Pool;
 use kernel::{Law, Target};
-use streams::ForceStreams;
 
-pub use choi_ko::{BUCKLING_TABLE, BucklingTable};
+pub use bands::internal_forces_banded;
+pub(crate) use choi_ko::BUCKLING_TABLE;
+pub use streams::ForceStreams;
 
 /// Adds the internal forces (N) of `settings.model` over `connections` to `f`,
 /// on one thread, family by family.
@@ -43,7 +44,7 @@ pub fn internal_forces(
 }
 
 /// [`internal_forces`] with the grid families evaluated by index step
-/// ([`streams`]): the same forces, summed in another order, in about half
+/// (`streams`): the same forces, summed in another order, in about half
 /// the time on a 15×15 cloth (6.6 → 3.0 µs).
 pub fn internal_forces_streamed(
     settings: &SimSettings,
@@ -117,7 +118,7 @@ fn grid_forces(
 /// | shear | `Tension { k_shear, k_d }` | `Spring` (shear) |
 /// | bend, bend diagonal | `Buckling { k_b, c_b }` | `Spring` (bend); no diagonal |
 /// | crease | `Tension { k, k_d }` | `Tension` (structural constants) |
-pub fn laws<'a>(
+pub(crate) fn laws<'a>(
     settings: &'a SimSettings,
     connections: &'a Connections,
 ) -> impl Iterator<Item = (&'a [Link], Law<'a>)> + Clone {
@@ -159,7 +160,7 @@ pub(crate) fn grid_laws<'a>(
         }
         ClothModel::Lander => {
             let p = &settings.lander;
-            let spring = |s: SpringParams| Law::Spring {
+            let spring = |s: SpringSettings| Law::Spring {
                 ks: s.stiffness,
                 kd: s.damping,
             };
@@ -204,7 +205,7 @@ fn extra_forces(
 
 /// Everything the acceleration of a cloth depends on besides its state.
 #[derive(Clone, Copy, Debug)]
-pub struct Dynamics<'a> {
+pub(crate) struct Dynamics<'a> {
     /// Model, constants, gravity and damping.
     pub settings: &'a SimSettings,
     /// The pairs the internal forces act on.
@@ -233,6 +234,7 @@ impl Dynamics<'_> {
     /// Writes the accelerations (m/s²) at state `(x, v)` into `out`:
     /// `a_i = w_i (F_int + F_ext)_i + g − c·v_i` for free particles, 0 for
     /// pinned ones (`w_i = 0`), so a pin keeps whatever velocity it was given.
+    #[cfg(test)]
     pub fn accelerations(&self, x: &[Vec3], v: &[Vec3], out: &mut [Vec3]) {
         self.accelerations_inner(None, x, v, out);
     }
@@ -240,6 +242,7 @@ impl Dynamics<'_> {
     /// [`accelerations`](Self::accelerations) with the single-threaded
     /// forces evaluated by index step ([`streams`]) in `streams`, the cache
     /// kept for this cloth between calls.
+    #[cfg(test)]
     pub fn accelerations_with(
         &self,
         streams: &mut ForceStreams,
@@ -428,7 +431,7 @@ mod tests {
             check(&s, &conn, &format!("{model:?} undamped"));
         }
         let s = SimSettings {
-            choi_ko: crate::sim::settings::ChoiKoParams {
+            choi_ko: crate::sim::settings::ChoiKoSettings {
                 bending_rigidity: 1.0,
                 ..Default::default()
             },

@@ -225,7 +225,7 @@ crate::simd::multiversion! {
 
 impl ForceStreams {
     /// Adds the forces (N) of every `(links, law)` family to `out`, like
-    /// [`kernel::pair_forces`] over the whole array.
+    /// `kernel::pair_forces` over the whole array.
     ///
     /// Positions `x` in m, velocities `v` in m/s (read only by damped laws);
     /// every link's ends must be indices into `x`.

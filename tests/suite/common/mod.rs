@@ -320,7 +320,7 @@ pub fn paper_app_with(stepping: ClothSettings) -> App {
         ..stepping.0
     };
     settings.choi_ko.bending_rigidity = 1e-4;
-    app.insert_resource(ClothDefaults(settings));
+    app.insert_resource(ClothSettingsDefaults(settings));
     app
 }
 

@@ -5,7 +5,7 @@
 //! and avian's `PhysicsPlugins`:
 //!
 //! - **Colliders.** Every avian `Collider` collides with every cloth whose
-//!   [`ContactLayers`] it shares (see [`From<CollisionLayers>`](ContactLayers)), with no
+//!   [`ClothContactLayers`] it shares (see [`From<CollisionLayers>`](ClothContactLayers)), with no
 //!   [`ClothCollider`] beside it: balls, cuboids, capsules, cylinders and
 //!   cones exactly; convex hulls, triangle meshes, height fields and
 //!   triangles as triangle meshes; compounds part by part; the rounded
@@ -60,8 +60,8 @@ use crate::plugin::ClothSchedule;
 use crate::plugin::bridges::body_motion::Motion;
 use crate::plugin::bridges::parry_shapes::{self as shapes, Piece};
 use crate::plugin::collision::{
-    ClothCollider, ClothColliderSources, ClothContactImpulses, ColliderScene, ContactLayers,
-    SceneCollider,
+    ClothCollider, ClothColliderScene, ClothColliderSources, ClothContactImpulses,
+    ClothContactLayers, SceneCollider,
 };
 use crate::plugin::schedule::ClothSystems;
 
@@ -152,7 +152,7 @@ impl Plugin for ClothAvianPlugin {
     }
 }
 
-impl From<CollisionLayers> for ContactLayers {
+impl From<CollisionLayers> for ClothContactLayers {
     fn from(layers: CollisionLayers) -> Self {
         Self::new(layers.memberships.0, layers.filters.0)
     }
@@ -162,11 +162,11 @@ impl From<CollisionLayers> for ContactLayers {
 /// the cloth cannot use), converted when the collider first feeds the
 /// scene and again when it changes.
 #[derive(Component, Clone, Debug)]
-pub struct AvianClothShape {
+pub struct ClothAvianShape {
     pieces: Result<Arc<[Piece]>, String>,
 }
 
-impl AvianClothShape {
+impl ClothAvianShape {
     fn of(collider: &Collider) -> Self {
         Self {
             pieces: shapes::pieces(collider.shape_scaled()).map(Arc::from),
@@ -187,7 +187,7 @@ struct ColliderData {
     layers: Option<&'static CollisionLayers>,
     friction: Option<&'static Friction>,
     restitution: Option<&'static Restitution>,
-    shape: Option<&'static mut AvianClothShape>,
+    shape: Option<&'static mut ClothAvianShape>,
 }
 
 /// What the bridge reads of a collider's body.
@@ -229,7 +229,7 @@ fn feed_colliders(
     gravity: Option<Res<Gravity>>,
     mut colliders: Query<ColliderData, Usable>,
     bodies: Query<BodyData>,
-    mut scene: ResMut<ColliderScene>,
+    mut scene: ResMut<ClothColliderScene>,
     mut warned: Local<HashSet<Entity>>,
 ) {
     let dt = time.timestep().as_secs_f32();
@@ -240,12 +240,12 @@ fn feed_colliders(
         let pieces = match item.shape.as_deref_mut() {
             Some(shape) => {
                 if item.collider.is_changed() {
-                    *shape = AvianClothShape::of(&item.collider);
+                    *shape = ClothAvianShape::of(&item.collider);
                 }
                 shape.pieces.clone()
             }
             None => fresh
-                .insert(AvianClothShape::of(&item.collider))
+                .insert(ClothAvianShape::of(&item.collider))
                 .pieces
                 .clone(),
         };
@@ -331,7 +331,7 @@ fn feed_colliders(
         let layers = item
             .layers
             .copied()
-            .map_or(ContactLayers::ALL, ContactLayers::from);
+            .map_or(ClothContactLayers::ALL, ClothContactLayers::from);
         for piece in pieces.iter() {
             let collider = SceneCollider::new(
                 item.entity,

@@ -6,7 +6,7 @@
 //! and bevy_rapier's `RapierPhysicsPlugin`:
 //!
 //! - **Colliders.** Every collider in a rapier context collides with every
-//!   cloth whose [`ContactLayers`] its `CollisionGroups` share (memberships
+//!   cloth whose [`ClothContactLayers`] its `CollisionGroups` share (memberships
 //!   and filters as bit masks), with no [`ClothCollider`] beside it; the
 //!   shapes are those of the avian bridge (both engines use parry): balls,
 //!   cuboids, capsules, cylinders and cones exactly; convex hulls, triangle
@@ -62,8 +62,8 @@ use crate::plugin::ClothSchedule;
 use crate::plugin::bridges::body_motion::Motion;
 use crate::plugin::bridges::parry_shapes::{self as shapes, Piece};
 use crate::plugin::collision::{
-    ClothCollider, ClothColliderSources, ClothContactImpulses, ColliderScene, ContactLayers,
-    SceneCollider,
+    ClothCollider, ClothColliderScene, ClothColliderSources, ClothContactImpulses,
+    ClothContactLayers, SceneCollider,
 };
 use crate::plugin::schedule::{ClothSystems, MainThread};
 
@@ -207,7 +207,7 @@ fn feed_colliders(
     )>,
     elsewhere: Query<(), Elsewhere>,
     velocities: Query<&Velocity>,
-    mut scene: ResMut<ColliderScene>,
+    mut scene: ResMut<ClothColliderScene>,
     mut cache: Local<HashMap<Entity, Cached>>,
     mut warned: Local<HashSet<Entity>>,
 ) {
@@ -301,7 +301,7 @@ fn feed_colliders(
             )
             .clamp(0.0, 1.0);
             let groups = collider.collision_groups();
-            let layers = ContactLayers::new(groups.memberships.bits(), groups.filter.bits());
+            let layers = ClothContactLayers::new(groups.memberships.bits(), groups.filter.bits());
             for piece in pieces.iter() {
                 let scene_collider = SceneCollider::new(
                     entity,

@@ -1,5 +1,6 @@
 use bevy::math::Vec3;
 
+use super::edge_pass::EDGE_THICKNESS;
 use super::*;
 
 /// A flat 1 m square of two triangles at height `y` m, at rest, its

@@ -115,15 +115,14 @@ pub struct SolveContact {
     pub friction: f32,
     /// The collider the contact is with, numbered as the caller numbers
     /// them: the solve does not read it, and hands it back with the
-    /// contact's impulse ([`ContactBuffers::impulses`]).
+    /// contact's impulse.
     pub source: u32,
-    /// The free body behind the surface, as an index into
-    /// [`ContactBuffers::bodies`], or [`NO_BODY`] for a surface that moves
+    /// The free body behind the surface, as an index into the bodies the
+    /// hook gives, or `u32::MAX` for a surface that moves
     /// as it was going to whatever the cloth does.
     pub body: u32,
     /// Whether the particle is held as an end of a link whose point between
-    /// its ends touches the surface
-    /// ([`collision::edges`](crate::sim::collision::edges)): `normal`,
+    /// its ends touches the surface: `normal`,
     /// `gap` and `velocity` are that point's. Its normal force is kept
     /// apart from the particle's own contact's, for its friction.
     pub edge: bool,
@@ -148,9 +147,9 @@ pub enum Hold {
     /// Not held.
     #[default]
     Free,
-    /// On the surface, sliding along it at [`STICK_SPEED`] or more.
+    /// On the surface, sliding along it at 0.1 mm/s or more.
     Slide,
-    /// On the surface, held by friction (slower than [`STICK_SPEED`]).
+    /// On the surface, held by friction (slower than 0.1 mm/s).
     Stick,
 }
 
