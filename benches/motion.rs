@@ -23,7 +23,7 @@ mod race;
 use std::time::Instant;
 
 use bevy::prelude::*;
-use bevy_cloth::plugin::mesh_cloth::disc_mesh;
+use bevy_cloth::plugin::spawn::disc_mesh;
 use bevy_cloth::prelude::*;
 use common::headless;
 use race::sizes;

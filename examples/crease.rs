@@ -14,7 +14,7 @@ mod automation;
 use bevy::picking::events::{PointerMove, PointerPress};
 use bevy::picking::mesh_picking::MeshPickingPlugin;
 use bevy::prelude::*;
-use bevy_cloth::plugin::picking::ClothPicking;
+use bevy_cloth::plugin::interaction::ClothPicking;
 use bevy_cloth::prelude::*;
 use bevy_cloth::sim::crease::{Crease, FoldAmount, FoldSide};
 use bevy_egui::EguiPlugin;

@@ -11,7 +11,7 @@ mod automation;
 
 use bevy::picking::mesh_picking::MeshPickingPlugin;
 use bevy::prelude::*;
-use bevy_cloth::plugin::mesh_cloth::disc_mesh;
+use bevy_cloth::plugin::spawn::disc_mesh;
 use bevy_cloth::prelude::*;
 use bevy_egui::EguiPlugin;
 use bevy_panorbit_camera::{PanOrbitCamera, PanOrbitCameraPlugin};

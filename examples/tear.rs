@@ -15,7 +15,7 @@ use bevy::picking::mesh_picking::MeshPickingPlugin;
 use bevy::picking::pointer::{PointerId, PointerLocation};
 use bevy::prelude::*;
 use bevy::shape::Ray3d;
-use bevy_cloth::plugin::picking::ClothPicking;
+use bevy_cloth::plugin::interaction::ClothPicking;
 use bevy_cloth::prelude::*;
 use bevy_egui::EguiPlugin;
 use bevy_panorbit_camera::{PanOrbitCamera, PanOrbitCameraPlugin};

@@ -58,8 +58,8 @@
 //! - The step runs in `FixedUpdate` in the chained [`ClothSystems`] sets and
 //!   never reads the frame delta; the mesh follows in `PostUpdate`,
 //!   interpolated between fixed steps.
-//! - A game reacts to [`events`](plugin::events) (grab, release, rest, wake,
-//!   divergence, and [`tear`](plugin::tear)s) and reads [`ClothStats`] and
+//! - A game reacts to [`events`](plugin::step) (grab, release, rest, wake,
+//!   divergence, and [`tear`](plugin::tearing)s) and reads [`ClothStats`] and
 //!   the [`diagnostics`](plugin::diagnostics).
 //! - Two layers: [`sim`] is the simulation, plain data and plain functions
 //!   over slices usable without an `App` ([`sim::step::step_cloth`],
@@ -91,15 +91,15 @@ mod simd;
 
 pub use crate::error::ClothError;
 pub use crate::plugin::ClothPlugin;
-pub use crate::plugin::anchor::{Anchor, ClothAnchors};
-pub use crate::plugin::builder::{ClothBuilder, ClothBundle};
-pub use crate::plugin::components::check_cloth;
-pub use crate::plugin::components::{
+pub use crate::plugin::spawn::ClothMaterial;
+pub use crate::plugin::spawn::{ClothBuilder, ClothBundle};
+pub use crate::plugin::step::ClothSystems;
+pub use crate::plugin::step::check_cloth;
+pub use crate::plugin::step::{
     Cloth, ClothConnections, ClothForces, ClothParticles, ClothSettings, ClothSettingsDefaults,
     ClothStats,
 };
-pub use crate::plugin::material::ClothMaterial;
-pub use crate::plugin::schedule::ClothSystems;
+pub use crate::plugin::worn::{Anchor, ClothAnchors};
 pub use crate::sim::connections::Link;
 pub use crate::sim::grid::{GridCorner, GridEdge};
 pub use crate::sim::material::Fabric;
@@ -116,28 +116,28 @@ pub mod prelude {
         ClothToClothCollision, ColliderShape, MeshShape,
     };
     pub use crate::plugin::crease::ClothCreases;
-    pub use crate::plugin::events::{
+    pub use crate::plugin::interaction::{ClothGrabs, GrabMode};
+    #[cfg(feature = "picking")]
+    pub use crate::plugin::interaction::{ClothPicking, ClothPointer};
+    pub use crate::plugin::lod::{ClothDetail, ClothLod, ClothLodDefaults};
+    pub use crate::plugin::render::ClothMeshSettings;
+    pub use crate::plugin::spawn::MeshLayout;
+    pub use crate::plugin::spawn::{ATTRIBUTE_PIN, MeshClothBuilder};
+    pub use crate::plugin::step::ClothPause;
+    pub use crate::plugin::step::{
         ClothAtRest, ClothDiverged, ClothGrabbed, ClothReleased, ClothWoke,
     };
-    pub use crate::plugin::frame::{ClothInertia, TeleportCloth};
-    pub use crate::plugin::interaction::{ClothGrabs, GrabMode};
-    pub use crate::plugin::lod::{ClothDetail, ClothLod, ClothLodDefaults};
-    pub use crate::plugin::mesh::ClothMeshSettings;
-    pub use crate::plugin::mesh_builder::{ATTRIBUTE_PIN, MeshClothBuilder};
-    pub use crate::plugin::mesh_cloth::MeshLayout;
-    #[cfg(feature = "picking")]
-    pub use crate::plugin::picking::{ClothPicking, ClothPointer};
-    pub use crate::plugin::schedule::ClothPause;
-    pub use crate::plugin::sew::{ClothSew, ClothSewn};
-    pub use crate::plugin::skin::{ATTRIBUTE_FREEDOM, ClothSkin};
-    pub use crate::plugin::sleep::{ClothSleep, WakeCloth};
-    pub use crate::plugin::tear::{ClothCut, ClothTearing, ClothTorn};
-    pub use crate::plugin::tether::ClothTethers;
+    pub use crate::plugin::step::{ClothSleep, WakeCloth};
+    pub use crate::plugin::tearing::{ClothCut, ClothTearing, ClothTorn};
+    pub use crate::plugin::tearing::{ClothSew, ClothSewn};
     #[cfg(feature = "debug")]
     pub use crate::plugin::tools::debug::{ClothDebug, ClothDebugPlugin};
     #[cfg(feature = "egui")]
     pub use crate::plugin::tools::panel::{ClothPanel, ClothPanelPlugin};
     pub use crate::plugin::wind::ClothWind;
+    pub use crate::plugin::worn::ClothTethers;
+    pub use crate::plugin::worn::{ATTRIBUTE_FREEDOM, ClothSkin};
+    pub use crate::plugin::worn::{ClothInertia, TeleportCloth};
     pub use crate::sim::collision::TriMesh;
     pub use crate::sim::crease::{Crease, FoldSide};
     pub use crate::sim::guard::Divergence;

@@ -18,7 +18,7 @@ use bevy::input::mouse::MouseButtonInput;
 use bevy::prelude::*;
 use bevy::render::view::screenshot::{Screenshot, ScreenshotCaptured, save_to_disk};
 use bevy::window::{CursorMoved, PrimaryWindow, WindowEvent};
-use bevy_cloth::plugin::picking::ClothPointerGrabs;
+use bevy_cloth::plugin::interaction::ClothPointerGrabs;
 use bevy_cloth::plugin::tools::panel::ClothPanel;
 
 /// Reads the command line and plays its script.

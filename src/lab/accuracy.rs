@@ -19,9 +19,10 @@ use std::hint::black_box;
 
 use bevy::math::{Quat, Vec3};
 
-use crate::plugin::builder::{ClothBuilder, ClothBundle, GridCorner};
-use crate::plugin::components::ClothStats;
-use crate::plugin::material::ClothMaterial;
+use crate::plugin::spawn::builder::{ClothBuilder, ClothBundle};
+use crate::plugin::spawn::material::ClothMaterial;
+use crate::plugin::step::components::ClothStats;
+use crate::sim::grid::GridCorner;
 use crate::sim::integrate::StepBuffers;
 use crate::sim::settings::{ClothModel, Integrator, SimSettings};
 use crate::sim::step::step_cloth;

@@ -90,7 +90,8 @@ pub fn pull_and_release(model: ClothModel) -> Residual {
         finite: true,
     };
     let steps = |s: f32| (s / STEP).round() as usize;
-    let mut step = |cloth: &mut crate::plugin::builder::ClothBundle, target: Option<Vec3>| {
+    let mut step = |cloth: &mut crate::plugin::spawn::builder::ClothBundle,
+                    target: Option<Vec3>| {
         let p = &mut cloth.particles;
         if let Some(t) = target {
             p.pin_by(corner, crate::sim::particles::PinOwner::Game);
@@ -134,7 +135,7 @@ pub fn pull_and_release(model: ClothModel) -> Residual {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::plugin::builder::ClothBuilder;
+    use crate::plugin::spawn::builder::ClothBuilder;
 
     #[test]
     fn a_flat_sheet_has_no_wrinkles_and_a_fold_has_some() {

@@ -14,7 +14,7 @@
 
 use bevy::prelude::*;
 
-use crate::plugin::components::{Cloth, ClothConnections};
+use crate::plugin::step::components::{Cloth, ClothConnections};
 use crate::sim::crease::{Crease, CreaseRecord, RestSurface, apply_closing, restore};
 
 /// How long a new crease takes to close, s: its fold angle grows linearly
@@ -60,7 +60,7 @@ impl ClothCreaseRecord {
     reason = "one query gathers what a crease edit needs"
 )]
 pub(crate) fn update_creases(
-    _main: crate::plugin::schedule::MainThread,
+    _main: crate::plugin::step::schedule::MainThread,
     time: Res<Time<Fixed>>,
     mut commands: Commands,
     mut cloths: Query<(

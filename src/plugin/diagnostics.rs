@@ -40,9 +40,9 @@ use bevy::platform::collections::HashMap;
 use bevy::platform::time::Instant;
 use bevy::prelude::{Entity, Local, Name, Query, Res, ResMut};
 
-use crate::plugin::components::ClothStats;
-use crate::plugin::components::{ClothSettings, ClothSettingsDefaults};
-use crate::plugin::schedule::ClothSystems;
+use crate::plugin::step::components::ClothStats;
+use crate::plugin::step::components::{ClothSettings, ClothSettingsDefaults};
+use crate::plugin::step::schedule::ClothSystems;
 use crate::sim::settings::Integrator;
 
 /// µs of integration per fixed step, summed over cloths.
@@ -93,7 +93,7 @@ pub(crate) fn configure(
         schedule,
         (record, record_named)
             .in_set(ClothSystems::Writeback)
-            .after(crate::plugin::systems::finish_step),
+            .after(crate::plugin::step::writeback::finish_step),
     );
 }
 
@@ -120,7 +120,7 @@ pub fn cloth_path(name: &str, leaf: &str) -> DiagnosticPath {
 /// Records the figures of every cloth with a [`Name`] under its own paths,
 /// registering them the first time.
 fn record_named(
-    _main: crate::plugin::schedule::MainThread,
+    _main: crate::plugin::step::schedule::MainThread,
     store: Option<ResMut<DiagnosticsStore>>,
     cloths: Query<(Entity, &ClothStats, &Name)>,
     mut paths: Local<HashMap<Entity, (Name, Vec<DiagnosticPath>)>>,
@@ -160,7 +160,7 @@ fn record_named(
 }
 
 fn record(
-    _main: crate::plugin::schedule::MainThread,
+    _main: crate::plugin::step::schedule::MainThread,
     mut diagnostics: Diagnostics,
     defaults: Res<ClothSettingsDefaults>,
     cloths: Query<(&ClothStats, Option<&ClothSettings>)>,

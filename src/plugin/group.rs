@@ -16,17 +16,20 @@ use bevy::ecs::schedule::common_conditions::{any_with_component, on_message};
 use bevy::ecs::schedule::{IntoScheduleConfigs, ScheduleLabel, SystemSet};
 
 use crate::plugin::ClothSchedule;
-use crate::plugin::anchor::ClothAnchors;
-use crate::plugin::components::{
+use crate::plugin::interaction::grab;
+use crate::plugin::render::mesh;
+use crate::plugin::spawn::material;
+use crate::plugin::spawn::material::ClothMaterial;
+use crate::plugin::step::components::{
     Cloth, ClothConnections, ClothForces, ClothParticles, ClothSettings, ClothSettingsDefaults,
     ClothStats,
 };
-use crate::plugin::material::ClothMaterial;
-use crate::plugin::schedule::{self, ClothSystems};
-use crate::plugin::{
-    anchor, collision, crease, diagnostics, events, frame, integrate, interaction, lod, material,
-    mesh, sew, skin, sleep, systems, tear, tether, wind,
-};
+use crate::plugin::step::schedule::{self, ClothSystems};
+use crate::plugin::step::{events, integrate, sleep, writeback};
+use crate::plugin::tearing::{sew, tear};
+use crate::plugin::worn::anchor::ClothAnchors;
+use crate::plugin::worn::{anchor, frame, skin, tether};
+use crate::plugin::{collision, crease, diagnostics, lod, wind};
 
 /// The members' places inside the public [`ClothSystems`] sets: each
 /// parent's stages are chained in this order.
@@ -91,7 +94,7 @@ impl Plugin for ClothCorePlugin {
             .register_type::<Cloth>()
             .register_required_components::<Cloth, bevy::transform::components::Transform>()
             .register_required_components::<Cloth, ClothForces>()
-            .register_required_components::<Cloth, systems::ClothScratch>()
+            .register_required_components::<Cloth, writeback::ClothScratch>()
             .register_required_components::<Cloth, ClothStats>()
             .register_required_components::<Cloth, sleep::ClothSleep>()
             .register_required_components::<Cloth, ClothMaterial>()
@@ -140,7 +143,7 @@ impl Plugin for ClothCorePlugin {
                         .in_set(Stage::Material),
                     integrate::step_cloths.in_set(Integrate),
                     (
-                        systems::finish_step,
+                        writeback::finish_step,
                         schedule::consume_step.run_if(schedule::paused),
                     )
                         .chain()
@@ -186,7 +189,7 @@ impl Plugin for ClothRenderPlugin {
     }
 }
 
-/// Grabs: [`ClothGrabs`](interaction::ClothGrabs) on every cloth, pulled by
+/// Grabs: [`ClothGrabs`](grab::ClothGrabs) on every cloth, pulled by
 /// game code, and with the `picking` feature by the pointer through the
 /// game's picking backend.
 #[derive(Clone, Copy, Debug, Default)]
@@ -195,30 +198,30 @@ pub struct ClothInteractionPlugin;
 impl Plugin for ClothInteractionPlugin {
     fn build(&self, app: &mut App) {
         let fixed = fixed(app);
-        app.register_required_components::<Cloth, interaction::ClothGrabs>()
-            .register_type::<interaction::ClothGrabs>()
+        app.register_required_components::<Cloth, grab::ClothGrabs>()
+            .register_type::<grab::ClothGrabs>()
             .register_type::<events::ClothGrabbed>()
             .register_type::<events::ClothReleased>()
             .add_systems(
                 fixed,
                 (
-                    interaction::apply_grabs
-                        .run_if(interaction::grabs_active)
+                    grab::apply_grabs
+                        .run_if(grab::grabs_active)
                         .in_set(Stage::Grabs),
-                    interaction::snap_grabs
-                        .run_if(interaction::grabs_active)
+                    grab::snap_grabs
+                        .run_if(grab::grabs_active)
                         .in_set(Stage::SnapGrabs),
                 ),
             );
         #[cfg(feature = "picking")]
-        crate::plugin::picking::configure(app);
+        crate::plugin::interaction::picking::configure(app);
     }
 
     fn finish(&self, app: &mut App) {
         // Here rather than in `build`, so that the game's own
         // `MeshPickingPlugin`, added before or after this one, is seen.
         #[cfg(feature = "picking")]
-        crate::plugin::picking::warn_without_backend(app);
+        crate::plugin::interaction::picking::warn_without_backend(app);
         #[cfg(not(feature = "picking"))]
         let _ = app;
     }

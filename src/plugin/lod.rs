@@ -143,15 +143,15 @@ mod choose {
 
     use super::{ClothDetail, ClothLod, ClothLodDefaults};
     use crate::plugin::collision::bounds;
-    use crate::plugin::components::ClothParticles;
-    use crate::plugin::interaction::ClothGrabs;
+    use crate::plugin::interaction::grab::ClothGrabs;
+    use crate::plugin::step::components::ClothParticles;
     use crate::sim::lod::{Detail, box_in_view, distance_to_box};
 
     /// [`ClothSystems::Prepare`](crate::ClothSystems::Prepare), first:
     /// chooses every cloth's [`ClothDetail`] for this fixed step from the
     /// active cameras.
     pub(crate) fn choose_detail(
-        _main: crate::plugin::schedule::MainThread,
+        _main: crate::plugin::step::schedule::MainThread,
         defaults: Res<ClothLodDefaults>,
         cameras: Query<(&Camera, &GlobalTransform, &Frustum)>,
         mut cloths: Query<(

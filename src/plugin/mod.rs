@@ -1,5 +1,5 @@
 //! The ECS layer: [`ClothPlugin`], the components of a cloth entity (thin
-//! newtypes over the [`sim`](crate::sim) types, in [`components`]), the
+//! newtypes over the [`sim`](crate::sim) types, in [`step`]), the
 //! systems that step them in `FixedUpdate`, and everything a game sees of
 //! a cloth: the live mesh, picking, grabs, anchors, colliders, wind,
 //! creases, events, diagnostics, the panel and the debug view.
@@ -9,38 +9,22 @@
 //! `sim` step and write back; they hold no physics of their own beyond
 //! gathering poses and forces.
 
-pub mod anchor;
 #[cfg(any(feature = "avian", feature = "rapier"))]
 pub mod bridges;
-pub mod builder;
 pub mod collision;
-pub mod components;
 pub mod crease;
 pub mod diagnostics;
-pub mod events;
-pub mod frame;
 mod group;
-pub(crate) mod integrate;
 pub mod interaction;
 pub mod lod;
-pub mod material;
-pub mod mesh;
-pub mod mesh_builder;
-pub mod mesh_cloth;
-#[cfg(feature = "picking")]
-pub mod picking;
-mod pool;
-pub(crate) mod pose;
-pub mod schedule;
-pub mod sew;
-pub mod skin;
-pub mod sleep;
-pub(crate) mod systems;
-pub mod tear;
-pub mod tether;
+pub mod render;
+pub mod spawn;
+pub mod step;
+pub mod tearing;
 #[cfg(any(feature = "egui", feature = "debug"))]
 pub mod tools;
 pub mod wind;
+pub mod worn;
 
 use bevy::app::{FixedUpdate, PluginGroup, PluginGroupBuilder};
 use bevy::ecs::intern::Interned;
@@ -52,10 +36,10 @@ pub use group::{
     ClothInteractionPlugin, ClothLodPlugin, ClothRenderPlugin, ClothTearingPlugin, ClothWindPlugin,
     ClothWornPlugin,
 };
-pub use pool::ComputePool;
+pub use step::ComputePool;
 
-/// Adds cloth simulation: the [`ClothSettingsDefaults`](components::ClothSettingsDefaults)
-/// resource, the [`ClothSystems`](schedule::ClothSystems) sets in
+/// Adds cloth simulation: the [`ClothSettingsDefaults`](step::ClothSettingsDefaults)
+/// resource, the [`ClothSystems`](step::ClothSystems) sets in
 /// `FixedUpdate` (or the schedule given to [`ClothPlugin::new`]) and the mesh
 /// sync in `PostUpdate`.
 ///
@@ -63,7 +47,7 @@ pub use pool::ComputePool;
 ///
 /// | member | what it adds |
 /// |---|---|
-/// | [`ClothCorePlugin`] | the step, its sets, the cloth components, statistics, rest and sleep, [`ClothPause`](schedule::ClothPause); the others need it |
+/// | [`ClothCorePlugin`] | the step, its sets, the cloth components, statistics, rest and sleep, [`ClothPause`](step::ClothPause); the others need it |
 /// | [`ClothRenderPlugin`] | the live mesh in `PostUpdate`, the default material |
 /// | [`ClothInteractionPlugin`] | grabs by game code and by the pointer |
 /// | [`ClothCollisionPlugin`] | colliders, the collider scene, cloth–cloth and self-collision |
@@ -192,42 +176,5 @@ impl PluginGroup for ClothPlugin {
             .add(group::ClothWornPlugin)
             .add(group::ClothLodPlugin)
             .add(group::ClothDiagnosticsPlugin)
-    }
-}
-
-#[cfg(feature = "render")]
-pub(crate) mod render {
-    use bevy::asset::{Assets, Handle};
-    use bevy::color::Color;
-    use bevy::pbr::{MeshMaterial3d, StandardMaterial};
-    use bevy::prelude::{Commands, Entity, Local, Query, ResMut, With, Without};
-
-    use crate::plugin::builder::Cloth;
-
-    /// Gives cloths without a material a double-sided, unculled one, so the
-    /// back of the cloth is lit and visible.
-    pub(crate) fn attach_default_material(
-        mut commands: Commands,
-        materials: Option<ResMut<Assets<StandardMaterial>>>,
-        mut handle: Local<Option<Handle<StandardMaterial>>>,
-        cloths: Query<Entity, (With<Cloth>, Without<MeshMaterial3d<StandardMaterial>>)>,
-    ) {
-        let Some(mut materials) = materials else {
-            return;
-        };
-        for entity in &cloths {
-            let material = handle.get_or_insert_with(|| {
-                materials.add(StandardMaterial {
-                    base_color: Color::srgb(0.75, 0.2, 0.2),
-                    perceptual_roughness: 0.9,
-                    double_sided: true,
-                    cull_mode: None,
-                    ..Default::default()
-                })
-            });
-            commands
-                .entity(entity)
-                .try_insert(MeshMaterial3d(material.clone()));
-        }
     }
 }

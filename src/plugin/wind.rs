@@ -9,9 +9,9 @@ use bevy::prelude::{
 };
 use bevy::time::Fixed;
 
-use crate::plugin::components::{Cloth, ClothForces, ClothParticles};
 use crate::plugin::lod::ClothDetail;
-use crate::plugin::sleep::ClothSleep;
+use crate::plugin::step::components::{Cloth, ClothForces, ClothParticles};
+use crate::plugin::step::sleep::ClothSleep;
 use crate::sim::wind::{Wind, step_wind_forces};
 
 /// The air around every cloth: a [`Wind`], which it dereferences to.
@@ -35,7 +35,7 @@ pub(crate) fn wind_blows(wind: Option<Res<ClothWind>>) -> bool {
 
 /// [`ClothSystems::Forces`](crate::ClothSystems::Forces): wind on every cloth.
 pub(crate) fn apply_wind(
-    _main: crate::plugin::schedule::MainThread,
+    _main: crate::plugin::step::schedule::MainThread,
     time: Res<Time<Fixed>>,
     wind: Res<ClothWind>,
     mut scratch: Local<(Vec<Vec3>, Vec<f32>)>,

@@ -200,7 +200,7 @@ pub struct ImplicitSettings {
     /// held stretched between pinned or grabbed particles, as a player's
     /// drag does), the step stands as the solve left it. 5 % by default;
     /// `f32::INFINITY` turns it off. A cloth with
-    /// [`ClothTearing`](crate::plugin::tear::ClothTearing) is not limited:
+    /// [`ClothTearing`](crate::plugin::tearing::tear::ClothTearing) is not limited:
     /// its threads must be free to reach their tear strain (15 % for
     /// cotton), and the guard's strain-spike rule takes its place.
     pub strain_limit: f32,
@@ -227,7 +227,7 @@ impl Default for ImplicitSettings {
 /// Choi–Ko constants per link (MODEL.md §11 defaults: cotton, 1 m, 15×15).
 ///
 /// These are the raw per-link constants; a cloth whose
-/// [`ClothMaterial`](crate::plugin::material::ClothMaterial) is a fabric gets them
+/// [`ClothMaterial`](crate::plugin::spawn::material::ClothMaterial) is a fabric gets them
 /// from the fabric and its spacing instead.
 #[derive(Clone, Copy, Debug, PartialEq, Reflect)]
 #[reflect(Default)]

@@ -7,7 +7,7 @@
 //! [`SleepSettings::rest_steps`] fixed steps. With
 //! [`SleepSettings::enabled`] (the default) it then *sleeps*: the plugin
 //! stops stepping it until something could move it (the
-//! [`sleep`](crate::plugin::sleep) module lists what wakes it).
+//! [`ClothSleep`](crate::plugin::step::ClothSleep) lists what wakes it).
 
 use bevy::reflect::Reflect;
 
@@ -39,8 +39,8 @@ pub const REST_STEPS: u32 = 30;
 #[derive(Clone, Copy, Debug, PartialEq, Reflect)]
 pub struct SleepSettings {
     /// Whether a cloth at rest sleeps (on by default). Off, it keeps
-    /// stepping at full cost, and [`ClothAtRest`](crate::plugin::events::ClothAtRest)
-    /// and [`ClothWoke`](crate::plugin::events::ClothWoke) still report its
+    /// stepping at full cost, and [`ClothAtRest`](crate::plugin::step::events::ClothAtRest)
+    /// and [`ClothWoke`](crate::plugin::step::events::ClothWoke) still report its
     /// rest.
     pub enabled: bool,
     /// Speed under which a free or grabbed particle counts as resting, m/s

@@ -180,7 +180,7 @@ fn face_forces(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::plugin::builder::ClothBuilder;
+    use crate::plugin::spawn::builder::ClothBuilder;
 
     fn total(wind: Vec3) -> Vec3 {
         // A horizontal 1 m² sheet (normal ±Y).

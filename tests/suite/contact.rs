@@ -6,7 +6,7 @@ use crate::common;
 
 use bevy::mesh::Meshable;
 use bevy::prelude::*;
-use bevy_cloth::plugin::mesh::grid_normals;
+use bevy_cloth::plugin::render::grid_normals;
 use bevy_cloth::prelude::*;
 use common::{app, particles};
 

@@ -114,7 +114,7 @@ fn it_draws_a_mesh_cloths_links_and_pins() {
         bevy::gizmos::GizmoPlugin,
         ClothDebugPlugin,
     ));
-    let disc = bevy_cloth::plugin::mesh_cloth::disc_mesh(0.3, 4);
+    let disc = bevy_cloth::plugin::spawn::disc_mesh(0.3, 4);
     let cloth = ClothBuilder::from_mesh(&disc)
         .position(Vec3::Y)
         .pin_vertex(0)

@@ -7,7 +7,7 @@ use std::hash::{Hash, Hasher};
 
 use bevy::ecs::message::Messages;
 use bevy::prelude::*;
-use bevy_cloth::plugin::events::ClothDiverged;
+use bevy_cloth::plugin::step::ClothDiverged;
 use bevy_cloth::prelude::*;
 use bevy_cloth::sim::guard::{Fallback, GuardSettings, GuardState, StepInput, step_guarded};
 use bevy_cloth::sim::integrate::StepBuffers;

@@ -6,7 +6,7 @@ use crate::common;
 
 use bevy::camera::{Camera, CameraProjection, PerspectiveProjection};
 use bevy::prelude::*;
-use bevy_cloth::plugin::skin::ClothSkinTargets;
+use bevy_cloth::plugin::worn::ClothSkinTargets;
 use bevy_cloth::prelude::*;
 use bevy_cloth::sim::connections::max_strain;
 use common::{app, particles, sheet, wear};

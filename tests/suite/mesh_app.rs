@@ -9,7 +9,7 @@ use bevy::ecs::message::Messages;
 use bevy::mesh::{MeshBuilder, Meshable, VertexAttributeValues};
 use bevy::prelude::*;
 use bevy::shape::{Circle, Sphere};
-use bevy_cloth::plugin::events::ClothDiverged;
+use bevy_cloth::plugin::step::ClothDiverged;
 use bevy_cloth::prelude::*;
 use bevy_cloth::sim::connections::max_strain;
 use common::{app, app_with_meshes, disc_mesh, jittered_disc, particles, triangle_mesh};

@@ -185,7 +185,7 @@ fn hung(cloth: ClothBundle) -> (Vec<u32>, u32) {
 /// the cap).
 #[test]
 fn a_cloth_hung_from_its_centre_keeps_most_solves_off_the_cap() {
-    use bevy_cloth::plugin::mesh_cloth::disc_mesh;
+    use bevy_cloth::plugin::spawn::disc_mesh;
     let disc = ClothBuilder::from_mesh(&disc_mesh(0.5, 36))
         .position(Vec3::new(0.0, 2.0, 0.0))
         .pin_where(|x| x.length() < 0.01)

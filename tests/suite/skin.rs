@@ -5,7 +5,7 @@
 use crate::common;
 
 use bevy::prelude::*;
-use bevy_cloth::plugin::skin::ClothSkinTargets;
+use bevy_cloth::plugin::worn::ClothSkinTargets;
 use bevy_cloth::prelude::*;
 use common::{COLS, ROWS, app, particles, ribbon, wear};
 

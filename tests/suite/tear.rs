@@ -457,7 +457,7 @@ fn a_creased_sheet_cut_across_its_crease_keeps_the_crease_on_each_side() {
 fn a_mesh_cloth_with_self_collision_is_cut_in_two_and_keeps_its_uvs() {
     let mut app = app();
     record_tears(&mut app);
-    let disc = bevy_cloth::plugin::mesh_cloth::disc_mesh(0.5, 10);
+    let disc = bevy_cloth::plugin::spawn::disc_mesh(0.5, 10);
     let shape = ClothBuilder::from_mesh(&disc)
         .position(Vec3::new(0.0, 1.0, 0.0))
         .pin_where(|p| p.x < -0.45)

@@ -11,7 +11,7 @@ use crate::common;
 
 use bevy::ecs::message::Messages;
 use bevy::prelude::*;
-use bevy_cloth::plugin::events::ClothDiverged;
+use bevy_cloth::plugin::step::ClothDiverged;
 use bevy_cloth::prelude::*;
 use common::app;
 

@@ -16,8 +16,8 @@ use bevy::time::Fixed;
 
 use super::ClothContactLayers;
 use crate::error::ClothError;
-use crate::plugin::components::{Cloth, ClothParticles};
-use crate::plugin::sleep::ClothSleep;
+use crate::plugin::step::components::{Cloth, ClothParticles};
+use crate::plugin::step::sleep::ClothSleep;
 use crate::sim::collision::cloths::{ClothObstacle, ObstacleBuffers, Pair};
 use crate::sim::grid::Faces;
 use crate::sim::integrate::implicit::SolveContact;
@@ -233,7 +233,7 @@ pub(crate) fn obstacles_in_use(
 /// non-finite position or velocity, or an invalid component (warned once),
 /// is left out. A sleeping cloth's particles do not give way.
 pub(crate) fn take_obstacles(
-    _main: crate::plugin::schedule::MainThread,
+    _main: crate::plugin::step::schedule::MainThread,
     time: Res<Time<Fixed>>,
     cloths: Query<ObstacleQuery>,
     mut obstacles: ResMut<ClothObstacles>,

@@ -5,7 +5,7 @@
 use bevy::math::{Isometry3d, Quat, Vec3};
 
 use crate::plugin::collision::scene::{ClothColliderScene, ContactImpulse, SceneCollider};
-use crate::plugin::components::Cloth;
+use crate::plugin::step::components::Cloth;
 use crate::sim::collision::ccd::prevent_crossings;
 use crate::sim::collision::contact::{MovingCollider, collide_particles};
 use crate::sim::collision::self_collision::keep_apart;
@@ -227,7 +227,7 @@ pub(crate) struct SceneContacts<'a> {
     /// ([`ClothCollision::in_solve`](super::ClothCollision::in_solve)).
     pub(crate) in_solve: bool,
     /// The cloth's tethers and their slack, applied before the contacts
-    /// ([`ClothTethers`](crate::plugin::tether::ClothTethers)).
+    /// ([`ClothTethers`](crate::plugin::worn::tether::ClothTethers)).
     pub(crate) tethers: Option<(&'a Tethers, f32)>,
     /// The cloth's Type 1 links (structural and shear), held off the
     /// colliders' edges and corners in the solve

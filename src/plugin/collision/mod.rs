@@ -51,10 +51,10 @@ use bevy::prelude::*;
 use bevy::time::Fixed;
 
 use crate::error::ClothError;
-use crate::plugin::components::Cloth;
-use crate::plugin::components::ClothParticles;
-use crate::plugin::pose::WorldPose;
-use crate::plugin::schedule::ClothSystems;
+use crate::plugin::step::components::Cloth;
+use crate::plugin::step::components::ClothParticles;
+use crate::plugin::step::pose::WorldPose;
+use crate::plugin::step::schedule::ClothSystems;
 pub(crate) use crate::sim::collision::SelfCollisionBuffers;
 use crate::sim::collision::contact::seed_triangle_pass;
 pub use crate::sim::collision::{Counts, Shape, TriMesh};
@@ -357,7 +357,7 @@ type OwnColliders = (
 /// The [`ClothCollider`] source, in [`ClothColliderSources`]: every valid
 /// collider's poses over the coming step; its end pose is its next start.
 fn gather_colliders(
-    _main: crate::plugin::schedule::MainThread,
+    _main: crate::plugin::step::schedule::MainThread,
     mut colliders: Query<OwnColliders>,
     mut scene: ResMut<ClothColliderScene>,
 ) {
@@ -391,7 +391,7 @@ fn scene_in_use(scene: Res<ClothColliderScene>, impulses: Res<ClothContactImpuls
 /// Empties the scene, and the last step's impulses, before the sources
 /// run.
 fn clear_scene(
-    _main: crate::plugin::schedule::MainThread,
+    _main: crate::plugin::step::schedule::MainThread,
     mut scene: ResMut<ClothColliderScene>,
     mut impulses: ResMut<ClothContactImpulses>,
 ) {
@@ -414,13 +414,13 @@ type SeedQuery = (
     &'static mut ClothParticles,
     Option<&'static ClothCollision>,
     Option<&'static ClothContactLayers>,
-    &'static crate::plugin::sleep::ClothSleep,
+    &'static crate::plugin::step::sleep::ClothSleep,
 );
 
 /// [`ClothSystems::Collide`]: the paper's
 /// triangle–triangle pass against mesh colliders, once per fixed step.
 fn seed_pass(
-    _main: crate::plugin::schedule::MainThread,
+    _main: crate::plugin::step::schedule::MainThread,
     time: Res<Time<Fixed>>,
     scene: Res<ClothColliderScene>,
     mut cloths: Query<SeedQuery>,

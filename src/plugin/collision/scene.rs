@@ -12,7 +12,7 @@ use crate::plugin::collision::{ColliderShape, MeshShape};
 use crate::sim::collision::contact::{Geometry, MovingCollider};
 use crate::sim::integrate::implicit::SolveBody;
 
-/// The system set, in [`ClothSystems::Prepare`](crate::plugin::schedule::ClothSystems::Prepare),
+/// The system set, in [`ClothSystems::Prepare`](crate::plugin::step::schedule::ClothSystems::Prepare),
 /// in which collider sources push this step's colliders into the
 /// [`ClothColliderScene`]: the crate's own [`ClothCollider`](super::ClothCollider)s,
 /// the avian and rapier bridges, and any of a game's own. The scene is
@@ -394,9 +394,9 @@ impl std::ops::AddAssign for ContactImpulse {
 /// The impulses every cloth gave each collider with
 /// [`feedback`](SceneCollider::feedback) over the last fixed step,
 /// per collider entity: set in
-/// [`ClothSystems::Integrate`](crate::plugin::schedule::ClothSystems::Integrate),
+/// [`ClothSystems::Integrate`](crate::plugin::step::schedule::ClothSystems::Integrate),
 /// read by bridges after it (the avian bridge applies them to dynamic bodies
-/// in [`ClothSystems::Writeback`](crate::plugin::schedule::ClothSystems::Writeback)).
+/// in [`ClothSystems::Writeback`](crate::plugin::step::schedule::ClothSystems::Writeback)).
 #[derive(Resource, Clone, Debug, Default)]
 pub struct ClothContactImpulses {
     pub(crate) map: HashMap<Entity, ContactImpulse>,

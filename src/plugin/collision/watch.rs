@@ -1,12 +1,12 @@
 //! What a sleeping cloth watches of the collider scene
-//! ([`sleep`](crate::plugin::sleep) module docs).
+//! ([`sleep`](crate::plugin::step::sleep) module docs).
 
 use bevy::ecs::change_detection::Tick;
 use bevy::math::{Isometry3d, Vec3};
 use bevy::prelude::Entity;
 
 use super::{ClothColliderScene, ClothContactLayers};
-use crate::plugin::sleep::Change;
+use crate::plugin::step::sleep::Change;
 use crate::sim::sleep::SleepSettings;
 
 /// What a sleeping cloth remembers of the moment it fell asleep, to see

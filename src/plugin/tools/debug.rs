@@ -29,12 +29,12 @@ use bevy::math::{Affine3A, Isometry3d, Vec3};
 use bevy::prelude::*;
 use bevy::shape::{Capsule3d, Cone, Cylinder, Plane3d, Sphere};
 
-use crate::plugin::anchor::ClothAnchors;
 use crate::plugin::collision::{ClothCollider, ClothCollision, ColliderShape, Shape};
-use crate::plugin::components::ClothConnections;
-use crate::plugin::components::ClothParticles;
-use crate::plugin::interaction::ClothGrabs;
-use crate::plugin::pose::WorldPose;
+use crate::plugin::interaction::grab::ClothGrabs;
+use crate::plugin::step::components::ClothConnections;
+use crate::plugin::step::components::ClothParticles;
+use crate::plugin::step::pose::WorldPose;
+use crate::plugin::worn::anchor::ClothAnchors;
 
 /// Adds the gizmo debug view; see [`ClothDebug`] for what it draws.
 pub struct ClothDebugPlugin;

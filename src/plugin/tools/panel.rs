@@ -15,15 +15,15 @@ use bevy::diagnostic::{DiagnosticPath, DiagnosticsStore};
 use bevy::prelude::*;
 use bevy_egui::{EguiContexts, EguiPrimaryContextPass, egui};
 
-use crate::plugin::components::Cloth;
-use crate::plugin::components::ClothParticles;
-use crate::plugin::components::{ClothSettings, ClothSettingsDefaults};
 use crate::plugin::diagnostics::{
     KINETIC_ENERGY, MAX_STRAIN, SOLVER_ITERATIONS, STEP_TIME, SUBSTEPS,
 };
-use crate::plugin::interaction::ClothGrabs;
-use crate::plugin::material::ClothMaterial;
-use crate::plugin::schedule::ClothPause;
+use crate::plugin::interaction::grab::ClothGrabs;
+use crate::plugin::spawn::material::ClothMaterial;
+use crate::plugin::step::components::Cloth;
+use crate::plugin::step::components::ClothParticles;
+use crate::plugin::step::components::{ClothSettings, ClothSettingsDefaults};
+use crate::plugin::step::schedule::ClothPause;
 use crate::plugin::wind::ClothWind;
 use crate::sim::material::Fabric;
 use crate::sim::settings::{ClothModel, Integrator, SimSettings};

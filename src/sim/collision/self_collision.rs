@@ -183,7 +183,7 @@ impl SelfCollisionBuffers {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::plugin::builder::ClothBuilder;
+    use crate::plugin::spawn::builder::ClothBuilder;
 
     #[test]
     fn a_particle_inside_the_thickness_is_pushed_out_with_momentum_conserved() {

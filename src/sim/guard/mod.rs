@@ -44,7 +44,7 @@
 //!
 //! The stronger setting stays in force for that cloth for a while (see
 //! [`GuardState::relax`] and [`ClothStats`](crate::ClothStats)), a
-//! [`ClothDiverged`](crate::plugin::events::ClothDiverged) message says what happened, and the plugin logs a
+//! [`ClothDiverged`](crate::plugin::step::events::ClothDiverged) message says what happened, and the plugin logs a
 //! warning once per cloth.
 //!
 //! A boost is for the transient that tripped it (an impact, a violent

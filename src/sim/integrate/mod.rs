@@ -99,7 +99,7 @@ impl StepBuffers {
     /// coarse correction) trust them unchanged instead of comparing or
     /// hashing them each step. `None`, the default, compares them every
     /// step. [`ClothPlugin`](crate::ClothPlugin) sets it from the
-    /// [`ClothConnections`](crate::plugin::components::ClothConnections)
+    /// [`ClothConnections`](crate::plugin::step::components::ClothConnections)
     /// component's change ticks.
     pub fn set_links_generation(&mut self, generation: Option<u64>) {
         self.streams.set_links_generation(generation);

@@ -2,7 +2,7 @@
 //! and the checks every edit must pass.
 
 use bevy::prelude::*;
-use bevy_cloth::plugin::mesh_cloth::MeshLayout;
+use bevy_cloth::plugin::spawn::MeshLayout;
 use bevy_cloth::prelude::*;
 
 /// The `ClothTorn` events seen, in order.

@@ -63,7 +63,7 @@ use crate::plugin::collision::{
     ClothCollider, ClothColliderScene, ClothColliderSources, ClothContactImpulses,
     ClothContactLayers, SceneCollider,
 };
-use crate::plugin::schedule::ClothSystems;
+use crate::plugin::step::schedule::ClothSystems;
 
 /// avian's colliders as cloth colliders, and the cloth's impulses on
 /// avian's dynamic bodies (module docs). Add it after `ClothPlugin`.
@@ -222,7 +222,7 @@ type Usable = (
     reason = "a Bevy system: each parameter is one resource or query"
 )]
 fn feed_colliders(
-    _main: crate::plugin::schedule::MainThread,
+    _main: crate::plugin::step::schedule::MainThread,
     mut commands: Commands,
     time: Res<Time<Fixed>>,
     settings: Res<ClothAvianSettings>,
@@ -368,7 +368,7 @@ type PushedBody = (
 /// [`ClothSystems::Writeback`]: the cloth's impulses on each dynamic body,
 /// linear and angular about its centre of mass.
 fn push_bodies(
-    _main: crate::plugin::schedule::MainThread,
+    _main: crate::plugin::step::schedule::MainThread,
     time: Res<Time<Fixed>>,
     gravity: Option<Res<Gravity>>,
     impulses: Res<ClothContactImpulses>,
@@ -417,7 +417,7 @@ fn push_bodies(
 /// shift out of the cloth it overlaps ([`ContactImpulse::shift`]), made to
 /// its `Position` and not to its velocity (a split impulse).
 fn separate_bodies(
-    _main: crate::plugin::schedule::MainThread,
+    _main: crate::plugin::step::schedule::MainThread,
     impulses: Res<ClothContactImpulses>,
     colliders: Query<&ColliderOf>,
     mut bodies: Query<(&RigidBody, &mut Position), Without<RigidBodyDisabled>>,

@@ -65,7 +65,7 @@ use crate::plugin::collision::{
     ClothCollider, ClothColliderScene, ClothColliderSources, ClothContactImpulses,
     ClothContactLayers, SceneCollider,
 };
-use crate::plugin::schedule::{ClothSystems, MainThread};
+use crate::plugin::step::schedule::{ClothSystems, MainThread};
 
 /// rapier's colliders as cloth colliders, and the cloth's impulses on
 /// rapier's dynamic bodies (module docs). Add it after `ClothPlugin`.

@@ -1,6 +1,6 @@
 use super::exact::sign_changes;
 use super::*;
-use crate::plugin::builder::ClothBuilder;
+use crate::plugin::spawn::builder::ClothBuilder;
 use crate::sim::grid::Grid;
 
 /// Every crossing from `start` to `end`, by testing every pair.

@@ -7,13 +7,13 @@
 //!    anchor's velocity for this step.
 //! 2. [`Crease`](ClothSystems::Crease): crease edits to the connections.
 //! 3. [`Forces`](ClothSystems::Forces): external forces are added to
-//!    [`ClothForces`](crate::plugin::components::ClothForces); order your own force
+//!    [`ClothForces`](crate::plugin::step::components::ClothForces); order your own force
 //!    systems (wind, explosions) here.
 //! 4. [`Integrate`](ClothSystems::Integrate): `substeps` integrator steps of
 //!    the internal forces plus gravity, damping and the external forces.
 //! 5. [`Collide`](ClothSystems::Collide): collision response.
 //! 6. [`Writeback`](ClothSystems::Writeback): anchored particles snap exactly
-//!    to their anchors, external forces are cleared, [`ClothStats`](crate::plugin::components::ClothStats)
+//!    to their anchors, external forces are cleared, [`ClothStats`](crate::plugin::step::components::ClothStats)
 //!    are measured. Read the stepped state after this set.
 //!
 //! All six sets run only while the simulation is not paused ([`ClothPause`]).
@@ -26,7 +26,7 @@
 //! alongside them.
 //!
 //! The rendered mesh is written later, in `PostUpdate`
-//! ([`ClothMeshSystems`](crate::plugin::mesh::ClothMeshSystems)).
+//! ([`ClothMeshSystems`](crate::plugin::render::mesh::ClothMeshSystems)).
 
 use bevy::ecs::schedule::SystemSet;
 use bevy::ecs::system::NonSendMarker;
@@ -90,7 +90,7 @@ pub(crate) fn paused(pause: Option<Res<ClothPause>>) -> bool {
 
 /// Uses up one single step at the end of a paused fixed step.
 pub(crate) fn consume_step(
-    _main: crate::plugin::schedule::MainThread,
+    _main: crate::plugin::step::schedule::MainThread,
     pause: Option<ResMut<ClothPause>>,
 ) {
     if let Some(mut pause) = pause

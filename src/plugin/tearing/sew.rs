@@ -19,12 +19,12 @@ use bevy::ecs::query::QueryData;
 use bevy::log::warn;
 use bevy::prelude::{Commands, Entity, EntityEvent, Message, MessageReader, Query, Reflect};
 
-use crate::plugin::anchor::ClothAnchors;
-use crate::plugin::components::{Cloth, ClothConnections, ClothForces, ClothParticles};
 use crate::plugin::crease::ClothCreaseRecord;
-use crate::plugin::interaction::ClothGrabs;
-use crate::plugin::mesh::ClothPrevious;
-use crate::plugin::skin::ClothSkin;
+use crate::plugin::interaction::grab::ClothGrabs;
+use crate::plugin::render::mesh::ClothPrevious;
+use crate::plugin::step::components::{Cloth, ClothConnections, ClothForces, ClothParticles};
+use crate::plugin::worn::anchor::ClothAnchors;
+use crate::plugin::worn::skin::ClothSkin;
 use crate::sim::sew::{self, Seam};
 
 /// Sews particle pairs of a cloth together: each pair (and pairs that chain
@@ -81,11 +81,11 @@ pub(crate) struct SewQuery {
 /// [`ClothSystems::Writeback`](crate::ClothSystems::Writeback): applies the
 /// [`ClothSew`]s and triggers [`ClothSewn`].
 pub(crate) fn sew_cloths(
-    _main: crate::plugin::schedule::MainThread,
+    _main: crate::plugin::step::schedule::MainThread,
     mut commands: Commands,
     mut sews: MessageReader<ClothSew>,
     #[cfg(feature = "picking")] mut pointers: Option<
-        bevy::prelude::ResMut<crate::plugin::picking::ClothPointerGrabs>,
+        bevy::prelude::ResMut<crate::plugin::interaction::picking::ClothPointerGrabs>,
     >,
     mut cloths: Query<SewQuery>,
 ) {
@@ -95,7 +95,8 @@ pub(crate) fn sew_cloths(
         };
         let n = item.particles.len();
         if n != item.cloth.len()
-            || crate::plugin::components::check_cloth(&item.particles, &item.connections).is_err()
+            || crate::plugin::step::components::check_cloth(&item.particles, &item.connections)
+                .is_err()
         {
             warn!("cloth {} is not sewn: its parts disagree", message.cloth);
             continue;

@@ -1,4 +1,4 @@
-//! [`ClothSystems::Integrate`](crate::plugin::schedule::ClothSystems::Integrate):
+//! [`ClothSystems::Integrate`](crate::plugin::step::schedule::ClothSystems::Integrate):
 //! [`step_cloths`] steps every cloth, in named stages:
 //!
 //! 1. [`settings_of`]: the cloth's settings (defaults, its override, its
@@ -36,18 +36,18 @@ use crate::plugin::collision::{
     ClothContactLayers, ClothContacts, ClothObstacles, ClothSelfCollision, ClothToClothScratch,
     ContactImpulse, SceneContacts, SelfCollisionScratch, bounds,
 };
-use crate::plugin::components::{
+use crate::plugin::lod::ClothDetail;
+use crate::plugin::spawn::material::ClothMaterial;
+use crate::plugin::step::components::{
     Cloth, ClothConnections, ClothForces, ClothParticles, ClothSettings, ClothSettingsDefaults,
     ClothStats, check_indices,
 };
-use crate::plugin::lod::ClothDetail;
-use crate::plugin::material::ClothMaterial;
-use crate::plugin::pool::compute_pool;
-use crate::plugin::sleep::{Change, ClothSleep};
-use crate::plugin::systems::ClothScratch;
-use crate::plugin::tear::ClothTearing;
-use crate::plugin::tether::{ClothTethers, TetherScratch};
+use crate::plugin::step::pool::compute_pool;
+use crate::plugin::step::sleep::{Change, ClothSleep};
+use crate::plugin::step::writeback::ClothScratch;
+use crate::plugin::tearing::tear::ClothTearing;
 use crate::plugin::wind::ClothWind;
+use crate::plugin::worn::tether::{ClothTethers, TetherScratch};
 use crate::sim::guard::{GuardedStep, StepInput, step_guarded};
 use crate::sim::lod::{pin_carry, ride_pins};
 use crate::sim::settings::SimSettings;
@@ -82,7 +82,7 @@ pub(crate) struct StepQuery {
 
 impl StepQueryItem<'_, '_> {
     /// Whether anything that could move this sleeping cloth changed since it
-    /// fell asleep or was last looked at ([`sleep`](crate::plugin::sleep)
+    /// fell asleep or was last looked at ([`sleep`](crate::plugin::step::sleep)
     /// module docs; the colliders, the wind and the defaults are the
     /// caller's).
     fn disturbed(&self) -> bool {
@@ -225,7 +225,7 @@ impl Reach {
     }
 }
 
-/// [`ClothSystems::Integrate`](crate::plugin::schedule::ClothSystems::Integrate):
+/// [`ClothSystems::Integrate`](crate::plugin::step::schedule::ClothSystems::Integrate):
 /// steps every cloth over the fixed timestep (never the frame delta),
 /// resolving contacts with nearby colliders and with itself after every
 /// substep when there are any. Without the collision plugin the step meets
@@ -238,7 +238,7 @@ impl Reach {
     reason = "a Bevy system: each parameter is one resource or query"
 )]
 pub(crate) fn step_cloths(
-    _main: crate::plugin::schedule::MainThread,
+    _main: crate::plugin::step::schedule::MainThread,
     time: Res<Time<Fixed>>,
     defaults: Res<ClothSettingsDefaults>,
     scene: Option<Res<ClothColliderScene>>,

@@ -37,8 +37,8 @@ use bevy::prelude::{
 };
 use bevy::time::Fixed;
 
-use crate::plugin::components::Cloth;
-use crate::plugin::components::ClothParticles;
+use crate::plugin::step::components::Cloth;
+use crate::plugin::step::components::ClothParticles;
 use crate::sim::grid::Faces;
 
 /// How cloth meshes are drawn.
@@ -78,7 +78,7 @@ pub(crate) struct ClothPrevious {
 
 /// Keeps each cloth's [`ClothPrevious`]: the positions before this step.
 pub(crate) fn remember_positions(
-    _main: crate::plugin::schedule::MainThread,
+    _main: crate::plugin::step::schedule::MainThread,
     mut cloths: Query<(&ClothParticles, &mut ClothPrevious)>,
 ) {
     for (particles, mut previous) in &mut cloths {

@@ -25,9 +25,9 @@ use bevy::math::Vec3;
 use bevy::prelude::{Commands, Component, Entity, Query, Reflect, ReflectComponent, Res, Time};
 use bevy::time::Fixed;
 
-use crate::plugin::components::ClothForces;
-use crate::plugin::components::{Cloth, ClothParticles};
-use crate::plugin::events::{ClothGrabbed, ClothReleased};
+use crate::plugin::step::components::ClothForces;
+use crate::plugin::step::components::{Cloth, ClothParticles};
+use crate::plugin::step::events::{ClothGrabbed, ClothReleased};
 use crate::sim::collision::trimesh::closest_point_on_triangle;
 use crate::sim::grid::Faces;
 use crate::sim::particles::PinOwner;
@@ -74,7 +74,7 @@ pub struct ClothGrabs {
 }
 
 impl ClothGrabs {
-    /// Follows a seam ([`ClothSew`](crate::plugin::sew::ClothSew)): each
+    /// Follows a seam ([`ClothSew`](crate::plugin::tearing::sew::ClothSew)): each
     /// particle `p` becomes `map[p]`; of two grabs that now hold one
     /// particle, the first stays.
     pub(crate) fn remap(&mut self, map: &[u32]) {
@@ -236,7 +236,7 @@ pub(crate) fn grabs_active(cloths: Query<&ClothGrabs>) -> bool {
 /// take the velocity that reaches their target by the step's end; spring
 /// grabs add their force. Triggers [`ClothGrabbed`] and [`ClothReleased`].
 pub(crate) fn apply_grabs(
-    _main: crate::plugin::schedule::MainThread,
+    _main: crate::plugin::step::schedule::MainThread,
     mut commands: Commands,
     time: Res<Time<Fixed>>,
     mut cloths: Query<(
@@ -299,7 +299,7 @@ pub(crate) fn apply_grabs(
 /// [`ClothSystems::Writeback`](crate::ClothSystems::Writeback): kinematic
 /// grabs sit exactly on their targets.
 pub(crate) fn snap_grabs(
-    _main: crate::plugin::schedule::MainThread,
+    _main: crate::plugin::step::schedule::MainThread,
     mut cloths: Query<(&ClothGrabs, &mut ClothParticles)>,
 ) {
     for (grabs, mut particles) in &mut cloths {

@@ -4,9 +4,9 @@ use bevy::math::Vec3;
 use bevy::prelude::{Component, Entity, On, Query, Reflect, ReflectComponent, Remove, Res, Time};
 use bevy::time::Fixed;
 
-use crate::plugin::components::ClothParticles;
-use crate::plugin::pose::WorldPose;
-use crate::plugin::sleep::ClothSleep;
+use crate::plugin::step::components::ClothParticles;
+use crate::plugin::step::pose::WorldPose;
+use crate::plugin::step::sleep::ClothSleep;
 use crate::sim::particles::PinOwner;
 
 /// One particle tied to another entity's transform.
@@ -58,7 +58,7 @@ pub struct Anchor {
 pub struct ClothAnchors(pub Vec<Anchor>, #[reflect(ignore)] Vec<u32>);
 
 impl ClothAnchors {
-    /// Follows a seam ([`ClothSew`](crate::plugin::sew::ClothSew)): each
+    /// Follows a seam ([`ClothSew`](crate::plugin::tearing::sew::ClothSew)): each
     /// particle `p` becomes `map[p]`; of two anchors that now carry one
     /// particle, the first stays.
     pub(crate) fn remap(&mut self, map: &[u32]) {
@@ -119,11 +119,11 @@ impl ClothAnchors {
     }
 }
 
-/// [`ClothSystems::Prepare`](crate::plugin::schedule::ClothSystems::Prepare): pins
+/// [`ClothSystems::Prepare`](crate::plugin::step::schedule::ClothSystems::Prepare): pins
 /// each anchored particle and gives it the velocity that reaches its target
 /// point at the end of the fixed step.
 pub(crate) fn follow_anchors(
-    _main: crate::plugin::schedule::MainThread,
+    _main: crate::plugin::step::schedule::MainThread,
     time: Res<Time<Fixed>>,
     targets: Query<WorldPose>,
     mut cloths: Query<(&mut ClothAnchors, &mut ClothParticles, &ClothSleep)>,
@@ -194,11 +194,11 @@ fn anchors_still(
         })
 }
 
-/// [`ClothSystems::Writeback`](crate::plugin::schedule::ClothSystems::Writeback):
+/// [`ClothSystems::Writeback`](crate::plugin::step::schedule::ClothSystems::Writeback):
 /// places anchored particles exactly on their targets (they keep the
 /// anchor's velocity). Sleeping cloths are left alone.
 pub(crate) fn snap_anchors(
-    _main: crate::plugin::schedule::MainThread,
+    _main: crate::plugin::step::schedule::MainThread,
     mut cloths: Query<(&ClothAnchors, &mut ClothParticles, &ClothSleep)>,
 ) {
     for (anchors, mut particles, _) in cloths.iter_mut().filter(|c| !c.2.is_asleep()) {

@@ -2,7 +2,7 @@
 //! solve, pins, the operator's block order, and the orders of accuracy.
 
 use super::*;
-use crate::plugin::builder::ClothBuilder;
+use crate::plugin::spawn::builder::ClothBuilder;
 use crate::sim::connections::{Connections, Link};
 use crate::sim::model::jacobian::assemble;
 use crate::sim::settings::{ClothModel, SimSettings};
@@ -49,7 +49,13 @@ fn dense(op: &Operator) -> Vec<Vec<f64>> {
 
 /// A deformed, moving `n × n` cloth pinned at two corners and the
 /// Jacobian blocks at its state.
-pub(super) fn deformed(n: u32) -> (crate::plugin::builder::ClothBundle, Vec<Vec3>, Vec<Block>) {
+pub(super) fn deformed(
+    n: u32,
+) -> (
+    crate::plugin::spawn::builder::ClothBundle,
+    Vec<Vec3>,
+    Vec<Block>,
+) {
     let mut cloth = ClothBuilder::new(n, n).pin(0).pin(n - 1).build().unwrap();
     // Deform: stretch some links, compress others.
     for (i, x) in cloth.particles.positions.iter_mut().enumerate() {
@@ -297,7 +303,7 @@ fn a_light_particles_block_inverts_to_a_positive_definite_one() {
 /// step of `h` seconds.
 fn linearised<'a>(
     settings: &'a SimSettings,
-    cloth: &'a crate::plugin::builder::ClothBundle,
+    cloth: &'a crate::plugin::spawn::builder::ClothBundle,
     v: &[Vec3],
     h: f32,
 ) -> (Dynamics<'a>, ImplicitBuffers) {
@@ -320,7 +326,7 @@ fn linearised<'a>(
 /// its tolerance.
 fn solved_cold(
     settings: &SimSettings,
-    cloth: &crate::plugin::builder::ClothBundle,
+    cloth: &crate::plugin::spawn::builder::ClothBundle,
     v: &[Vec3],
 ) -> ImplicitBuffers {
     let h = 1.0 / 60.0;

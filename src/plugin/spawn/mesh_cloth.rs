@@ -310,7 +310,7 @@ impl MeshLayout {
 /// [`ClothBuilder::from_mesh`](crate::ClothBuilder::from_mesh).
 ///
 /// ```
-/// use bevy_cloth::plugin::mesh_cloth::disc_mesh;
+/// use bevy_cloth::plugin::spawn::disc_mesh;
 /// use bevy_cloth::prelude::*;
 /// // A 1.7 m tablecloth with 5 cm between particles: 919 of them.
 /// let cloth = ClothBuilder::from_mesh(&disc_mesh(0.85, 17)).build().unwrap();

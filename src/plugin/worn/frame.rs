@@ -8,12 +8,12 @@ use bevy::prelude::{
     Component, Entity, EntityWorldMut, Local, Query, Reflect, ReflectComponent, Vec3,
 };
 
-use crate::plugin::anchor::ClothAnchors;
-use crate::plugin::components::ClothParticles;
-use crate::plugin::mesh::ClothPrevious;
-use crate::plugin::pose::WorldPose;
-use crate::plugin::skin::ClothSkin;
-use crate::plugin::systems::ClothScratch;
+use crate::plugin::render::mesh::ClothPrevious;
+use crate::plugin::step::components::ClothParticles;
+use crate::plugin::step::pose::WorldPose;
+use crate::plugin::step::writeback::ClothScratch;
+use crate::plugin::worn::anchor::ClothAnchors;
+use crate::plugin::worn::skin::ClothSkin;
 use crate::sim::frame::{Carry, InertiaScale, teleport};
 
 /// The frame a cloth moves with (a character's body, a cart) and how much
@@ -81,7 +81,7 @@ type CarryQuery = (
 /// [`ClothSystems::Prepare`](crate::ClothSystems::Prepare): carries each
 /// cloth's free particles by the unfelt share of its frame's motion.
 pub(crate) fn carry_with_frames(
-    _main: crate::plugin::schedule::MainThread,
+    _main: crate::plugin::step::schedule::MainThread,
     frames: Query<WorldPose>,
     mut cloths: Query<CarryQuery>,
     mut carried: Local<Vec<bool>>,

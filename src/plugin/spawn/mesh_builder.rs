@@ -5,10 +5,12 @@ use bevy::math::{Quat, Vec3};
 use bevy::mesh::{Mesh, MeshVertexAttribute, VertexFormat};
 
 use crate::error::ClothError;
-use crate::plugin::builder::{ClothBuilder, ClothBundle, Common, Mass, common_setters};
-use crate::plugin::components::{Cloth, ClothConnections, ClothParticles, ClothSettings};
-use crate::plugin::material::ClothMaterial;
-use crate::plugin::mesh_cloth::{MeshLayout, float_attribute, marked_particles, painted_particles};
+use crate::plugin::spawn::builder::{ClothBuilder, ClothBundle, Common, Mass, common_setters};
+use crate::plugin::spawn::material::ClothMaterial;
+use crate::plugin::spawn::mesh_cloth::{
+    MeshLayout, float_attribute, marked_particles, painted_particles,
+};
+use crate::plugin::step::components::{Cloth, ClothConnections, ClothParticles, ClothSettings};
 use crate::sim::particles::PinOwner;
 
 /// A pin request, resolved against the welded mesh.

@@ -5,12 +5,12 @@
 //!
 //! | event | when |
 //! |---|---|
-//! | [`ClothGrabbed`] | a grab of [`ClothGrabs`](crate::plugin::interaction::ClothGrabs) first takes hold of its particle |
+//! | [`ClothGrabbed`] | a grab of [`ClothGrabs`](crate::plugin::interaction::grab::ClothGrabs) first takes hold of its particle |
 //! | [`ClothReleased`] | that grab lets go |
 //! | [`ClothAtRest`] | no free or grabbed particle has moved faster than [`REST_SPEED`] for [`REST_STEPS`] fixed steps (the cloth then sleeps) |
 //! | [`ClothWoke`] | a sleeping cloth is woken, or a resting one's fastest free or grabbed particle passes [`WAKE_SPEED`] |
 //! | [`ClothDiverged`] | the divergence guard redid a step (also a [`Message`]) |
-//! | [`ClothTorn`](crate::plugin::tear::ClothTorn) | links broke ([`ClothTearing`](crate::plugin::tear::ClothTearing)) or a [`ClothCut`](crate::plugin::tear::ClothCut) crossed the cloth |
+//! | [`ClothTorn`](crate::plugin::tearing::tear::ClothTorn) | links broke ([`ClothTearing`](crate::plugin::tearing::tear::ClothTearing)) or a [`ClothCut`](crate::plugin::tearing::tear::ClothCut) crossed the cloth |
 //!
 //! ```
 //! # use bevy::prelude::*;
@@ -55,7 +55,7 @@ pub struct ClothReleased {
 /// than [`SleepSettings::rest_speed`](crate::sim::sleep::SleepSettings::rest_speed)
 /// ([`REST_SPEED`] by default) for its `rest_steps` fixed steps. With sleep
 /// on (the default) it sleeps from the next step
-/// ([`ClothSleep`](crate::plugin::sleep::ClothSleep)); with sleep off it
+/// ([`ClothSleep`](crate::plugin::step::sleep::ClothSleep)); with sleep off it
 /// keeps being simulated.
 #[derive(EntityEvent, Clone, Copy, Debug, PartialEq, Reflect)]
 #[non_exhaustive]
@@ -65,7 +65,7 @@ pub struct ClothAtRest {
 }
 
 /// A resting cloth moves again: a sleeping cloth was woken (the
-/// [`sleep`](crate::plugin::sleep) module lists what wakes it), or, with sleep
+/// [`ClothSleep`](crate::plugin::step::ClothSleep) lists what wakes it), or, with sleep
 /// off, a free or grabbed particle passed
 /// [`SleepSettings::wake_speed`](crate::sim::sleep::SleepSettings::wake_speed)
 /// ([`WAKE_SPEED`] by default).

@@ -5,13 +5,13 @@
 use bevy::math::{Quat, Vec2, Vec3};
 use bevy::prelude::Bundle;
 
-pub use crate::error::ClothError;
-pub use crate::plugin::components::Cloth;
-use crate::plugin::components::ClothConnections;
-use crate::plugin::components::ClothParticles;
-use crate::plugin::components::ClothSettings;
-use crate::plugin::material::ClothMaterial;
-pub use crate::sim::grid::{Grid, GridCorner, GridEdge, MAX_PARTICLES};
+use crate::error::ClothError;
+use crate::plugin::spawn::material::ClothMaterial;
+use crate::plugin::step::components::Cloth;
+use crate::plugin::step::components::ClothConnections;
+use crate::plugin::step::components::ClothParticles;
+use crate::plugin::step::components::ClothSettings;
+use crate::sim::grid::{Grid, GridCorner, GridEdge, MAX_PARTICLES};
 use crate::sim::particles::PinOwner;
 
 /// How the cloth's mass is given (kg/m² or kg).

@@ -12,7 +12,7 @@ use bevy::prelude::{
 };
 
 use crate::error::ClothError;
-use crate::plugin::mesh_cloth::MeshLayout;
+use crate::plugin::spawn::mesh_cloth::MeshLayout;
 use crate::sim::connections::{Connections, max_strain};
 use crate::sim::grid::{Faces, Grid};
 use crate::sim::particles::Particles;
@@ -275,7 +275,7 @@ pub struct ClothSettingsDefaults(pub SimSettings);
 /// External forces on each particle in N, held constant through one fixed
 /// step and cleared after it.
 ///
-/// Systems in [`ClothSystems::Forces`](crate::plugin::schedule::ClothSystems::Forces)
+/// Systems in [`ClothSystems::Forces`](crate::plugin::step::schedule::ClothSystems::Forces)
 /// add to it (wind, a grab spring, a game's explosion); an empty vector
 /// means no external force and costs nothing.
 #[derive(Component, Clone, Debug, Default, PartialEq, Reflect)]
@@ -335,7 +335,7 @@ pub struct ClothStats {
     pub integrator: crate::sim::settings::Integrator,
     /// Speed of the fastest free particle, m/s.
     pub max_speed: f32,
-    /// Whether the cloth is at rest (see [`ClothAtRest`](crate::plugin::events::ClothAtRest)).
+    /// Whether the cloth is at rest (see [`ClothAtRest`](crate::plugin::step::events::ClothAtRest)).
     pub resting: bool,
 }
 

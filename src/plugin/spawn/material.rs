@@ -6,7 +6,7 @@ use bevy::prelude::{
 };
 
 use crate::error::ClothError;
-use crate::plugin::components::{Cloth, ClothParticles};
+use crate::plugin::step::components::{Cloth, ClothParticles};
 use crate::sim::material::Fabric;
 use crate::sim::particles::Particles;
 use crate::sim::settings::SimSettings;
@@ -101,7 +101,7 @@ pub(crate) fn materials_changed(
 /// fabric changed takes the new fabric's density: every mass is scaled so
 /// the cloth weighs `density × area` (pins stay pins).
 pub(crate) fn apply_density(
-    _main: crate::plugin::schedule::MainThread,
+    _main: crate::plugin::step::schedule::MainThread,
     mut cloths: Query<(&Cloth, Ref<ClothMaterial>, &mut ClothParticles), Changed<ClothMaterial>>,
 ) {
     for (cloth, material, mut particles) in &mut cloths {

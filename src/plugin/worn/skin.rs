@@ -12,10 +12,10 @@ use bevy::prelude::{ChildOf, Component, Entity, Query, Res, Time, Transform};
 use bevy::time::Fixed;
 
 use crate::error::ClothError;
-use crate::plugin::components::ClothParticles;
-use crate::plugin::mesh_cloth::{MeshLayout, float_attribute};
-use crate::plugin::sleep::ClothSleep;
-use crate::plugin::tether::ClothTethers;
+use crate::plugin::spawn::mesh_cloth::{MeshLayout, float_attribute};
+use crate::plugin::step::components::ClothParticles;
+use crate::plugin::step::sleep::ClothSleep;
+use crate::plugin::worn::tether::ClothTethers;
 use crate::sim::particles::PinOwner;
 pub use crate::sim::skin::{Backstop, Influence};
 use crate::sim::skin::{limit_distance, push_out_of_capsule, skin};
@@ -240,7 +240,7 @@ fn world_of(
 /// cloth's animated positions for this step and carries the particles of
 /// freedom 0 to them.
 pub(crate) fn follow_skins(
-    _main: crate::plugin::schedule::MainThread,
+    _main: crate::plugin::step::schedule::MainThread,
     time: Res<Time<Fixed>>,
     transforms: Query<(&Transform, Option<&ChildOf>)>,
     mut cloths: Query<(
@@ -322,7 +322,7 @@ pub(crate) fn follow_skins(
 /// others within their share of the max distance and outside the
 /// backstops.
 pub(crate) fn limit_skins(
-    _main: crate::plugin::schedule::MainThread,
+    _main: crate::plugin::step::schedule::MainThread,
     time: Res<Time<Fixed>>,
     mut cloths: Query<(
         &ClothSkin,

@@ -17,13 +17,13 @@ use bevy::prelude::{
 use crate::plugin::collision::{
     ClothColliderScene, ClothCollision, ClothContactLayers, Feedback, SleepWatch, bounds,
 };
-use crate::plugin::components::{
+use crate::plugin::interaction::grab::ClothGrabs;
+use crate::plugin::lod::ClothDetail;
+use crate::plugin::step::components::{
     ClothConnections, ClothForces, ClothParticles, ClothStats, check_indices,
 };
-use crate::plugin::events::ClothDiverged;
-use crate::plugin::interaction::ClothGrabs;
-use crate::plugin::lod::ClothDetail;
-use crate::plugin::sleep::{Change, ClothSleep};
+use crate::plugin::step::events::ClothDiverged;
+use crate::plugin::step::sleep::{Change, ClothSleep};
 use crate::sim::lod::Detail;
 use crate::sim::sleep::{RestChange, RestTracker};
 
@@ -79,7 +79,7 @@ impl Measured {
 }
 
 /// Preallocated scratch for one cloth's step (not reflected), a part per
-/// stage of [`step_cloths`](crate::plugin::integrate::step_cloths).
+/// stage of [`step_cloths`](crate::plugin::step::integrate::step_cloths).
 #[derive(Component, Clone, Debug, Default)]
 pub(crate) struct ClothScratch {
     /// Stage buffers of the integrators.
@@ -149,16 +149,16 @@ pub(crate) struct WritebackQuery {
     layers: Option<&'static ClothContactLayers>,
 }
 
-/// [`ClothSystems::Writeback`](crate::plugin::schedule::ClothSystems::Writeback):
+/// [`ClothSystems::Writeback`](crate::plugin::step::schedule::ClothSystems::Writeback):
 /// clears the external forces, measures [`ClothStats`] (with the strain the
 /// step's guard measured, if the particles have not changed since:
 /// [`Measured`]), reports the step's divergences ([`report_divergence`]),
-/// triggers [`ClothAtRest`](crate::plugin::events::ClothAtRest) and
-/// [`ClothWoke`](crate::plugin::events::ClothWoke), and puts cloths at rest
+/// triggers [`ClothAtRest`](crate::plugin::step::events::ClothAtRest) and
+/// [`ClothWoke`](crate::plugin::step::events::ClothWoke), and puts cloths at rest
 /// to sleep, in one system. A cloth whose grabs move a particle is not at
 /// rest, whatever its free particles do; a held cloth does not sleep.
 pub(crate) fn finish_step(
-    _main: crate::plugin::schedule::MainThread,
+    _main: crate::plugin::step::schedule::MainThread,
     mut commands: Commands,
     mut cloths: Query<WritebackQuery>,
     mut out: MessageWriter<ClothDiverged>,

@@ -39,8 +39,8 @@ use bevy::picking::pointer::{PointerButton, PointerId};
 use bevy::platform::collections::HashMap;
 use bevy::prelude::*;
 
-use crate::plugin::components::{Cloth, ClothParticles};
-use crate::plugin::interaction::{ClothGrabs, GrabMode, nearest_on_surface};
+use crate::plugin::interaction::grab::{ClothGrabs, GrabMode, nearest_on_surface};
+use crate::plugin::step::components::{Cloth, ClothParticles};
 
 /// How the pointer acts on cloths.
 #[derive(Resource, Clone, Debug, PartialEq, Reflect)]
@@ -80,7 +80,7 @@ pub struct PointerGrab {
 pub struct ClothPointerGrabs(HashMap<PointerId, PointerGrab>);
 
 impl ClothPointerGrabs {
-    /// Follows a seam of `cloth` ([`ClothSew`](crate::plugin::sew::ClothSew)):
+    /// Follows a seam of `cloth` ([`ClothSew`](crate::plugin::tearing::sew::ClothSew)):
     /// each held particle of it becomes `map[particle]`.
     pub(crate) fn remap(&mut self, cloth: Entity, map: &[u32]) {
         for grab in self.0.values_mut().filter(|g| g.cloth == cloth) {
@@ -129,7 +129,7 @@ impl ClothPointerGrabs {
 pub struct ClothPointer<'w, 's> {
     hovers: Option<Res<'w, HoverMap>>,
     held: Res<'w, ClothPointerGrabs>,
-    cloths: Query<'w, 's, (), With<crate::plugin::components::Cloth>>,
+    cloths: Query<'w, 's, (), With<crate::plugin::step::components::Cloth>>,
     #[cfg(feature = "egui")]
     egui: Option<Res<'w, bevy_egui::input::EguiWantsInput>>,
 }

@@ -38,13 +38,15 @@ use bevy::prelude::{
 use bevy::shape::Ray3d;
 
 use crate::error::ClothError;
-use crate::plugin::anchor::ClothAnchors;
-use crate::plugin::components::{Cloth, ClothConnections, ClothForces, ClothSettingsDefaults};
-use crate::plugin::components::{ClothParticles, ClothSettings};
 use crate::plugin::crease::ClothCreaseRecord;
-use crate::plugin::material::ClothMaterial;
-use crate::plugin::mesh::ClothPrevious;
-use crate::plugin::skin::ClothSkin;
+use crate::plugin::render::mesh::ClothPrevious;
+use crate::plugin::spawn::material::ClothMaterial;
+use crate::plugin::step::components::{
+    Cloth, ClothConnections, ClothForces, ClothSettingsDefaults,
+};
+use crate::plugin::step::components::{ClothParticles, ClothSettings};
+use crate::plugin::worn::anchor::ClothAnchors;
+use crate::plugin::worn::skin::ClothSkin;
 use crate::sim::connections::{Connections, Link};
 use crate::sim::settings::ClothModel;
 pub use crate::sim::tear::Blade;
@@ -247,7 +249,7 @@ pub(crate) struct TearQuery {
     anchors: Option<&'static mut ClothAnchors>,
     skin: Option<&'static mut ClothSkin>,
     creases: Option<&'static mut ClothCreaseRecord>,
-    sleep: &'static crate::plugin::sleep::ClothSleep,
+    sleep: &'static crate::plugin::step::sleep::ClothSleep,
 }
 
 /// Run condition of [`tear_cloths`]: a cloth tears, or a cut was written.
@@ -270,7 +272,7 @@ fn load(l: &Link, x: &[Vec3], k: f32) -> (f32, f32) {
 /// links of tearing cloths past their thresholds, applies the cuts, and
 /// triggers [`ClothTorn`].
 pub(crate) fn tear_cloths(
-    _main: crate::plugin::schedule::MainThread,
+    _main: crate::plugin::step::schedule::MainThread,
     mut commands: Commands,
     mut cuts: MessageReader<ClothCut>,
     defaults: Option<Res<ClothSettingsDefaults>>,
@@ -283,7 +285,8 @@ pub(crate) fn tear_cloths(
     for mut item in &mut cloths {
         let entity = item.entity;
         if item.particles.positions.len() != item.cloth.len()
-            || crate::plugin::components::check_cloth(&item.particles, &item.connections).is_err()
+            || crate::plugin::step::components::check_cloth(&item.particles, &item.connections)
+                .is_err()
             || !item.particles.is_finite()
         {
             continue;
