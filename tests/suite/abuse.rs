@@ -294,8 +294,21 @@ fn a_cloth_flicked_at_50_m_s_settles() {
 }
 
 #[test]
-fn a_thousand_random_grabs_leave_the_pins_where_they_were_put() {
-    for (name, settings) in variants() {
+fn a_thousand_random_grabs_leave_the_pins_where_they_were_put_with_implicit_steps() {
+    thousand_random_grabs(|s| s.is_none_or(|s| s.0.integrator.is_implicit()));
+}
+
+#[test]
+fn a_thousand_random_grabs_leave_the_pins_where_they_were_put_with_explicit_steps() {
+    thousand_random_grabs(|s| s.is_some_and(|s| !s.0.integrator.is_implicit()));
+}
+
+/// A thousand grabs of random particles, kinematic or springs, each carried
+/// 0.4 m over 1–4 frames and let go, on a 12×12 cloth hung from two corners,
+/// with each of [`variants`] that `pick` keeps: every pin stays where it was
+/// last put and the cloth ends within 5 % strain.
+fn thousand_random_grabs(pick: impl Fn(Option<&ClothSettings>) -> bool) {
+    for (name, settings) in variants().into_iter().filter(|(_, s)| pick(s.as_ref())) {
         let (mut app, e) = spawn(hanging(12), settings);
         let n = 144;
         let mut rng = Rng::new(0x5eed);
