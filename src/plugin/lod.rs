@@ -17,14 +17,14 @@
 //!   their mean over the combined step (an impulse written once is kept);
 //!   the wind is evaluated once for it. In the fixed steps between, its
 //!   pins still follow their anchors, skin or frame, and its free
-//!   particles are carried with them by the best-fitting rigid motion
-//!   (`pin_carry`): a cape stays on its
+//!   particles are carried with them by the best-fitting rigid motion: a
+//!   cape stays on its
 //!   character at every level.
 //! - **Earned**: a long step is less accurate where the cloth moves fast,
 //!   so a new cloth starts at one fixed step a step, and the number it
 //!   may combine doubles after every half second of steps that kept its
-//!   strain under 10 % and halves after a step that did not
-//!   (`Pacer`). [`ClothDetail::detail`] is the
+//!   strain under 10 % and halves after a step that did not.
+//!   [`ClothDetail::detail`] is the
 //!   level it steps at.
 //! - **Frozen** ([`Detail::Frozen`], beyond [`LodSettings::freeze`]): the
 //!   cloth is not stepped, only carried by its pins; the time it misses is

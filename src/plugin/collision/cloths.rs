@@ -27,7 +27,7 @@ use crate::sim::integrate::implicit::SolveContact;
 /// [`layer`](Self::layer) is kept `thickness` m off the other's surface
 /// inside its own step (its particles off the other's triangles, its
 /// triangles off the other's particles), and the other moves as if it were
-/// not there (`sim::collision::cloths`).
+/// not there.
 ///
 /// Two cloths meet when their [`groups`](Self::groups) interact; a pair
 /// keeps the larger of its two thicknesses and the mean of its frictions.

@@ -63,6 +63,41 @@ impl Common {
         Ok((mass, self.rotation / length))
     }
 
+    /// The bundle both builders make: checks the particles' `masses` (kg;
+    /// `m`, the mass the builder was given, names an invalid one), pins
+    /// the particles `resolve` gives for each of `pins`, and puts the
+    /// components together.
+    #[expect(
+        clippy::too_many_arguments,
+        reason = "the parts of a cloth, each made by its builder"
+    )]
+    pub(crate) fn bundle<P>(
+        &self,
+        m: f32,
+        cloth: Cloth,
+        positions: Vec<Vec3>,
+        masses: Vec<f32>,
+        connections: ClothConnections,
+        pins: &[P],
+        resolve: impl Fn(&P) -> Result<Vec<u32>, ClothError>,
+    ) -> Result<ClothBundle, ClothError> {
+        if masses.iter().any(|m| !(m.is_finite() && *m > 0.0)) {
+            return Err(ClothError::InvalidMass(m));
+        }
+        let mut particles = ClothParticles::new(positions, masses);
+        for pin in pins {
+            for p in resolve(pin)? {
+                particles.pin_by(p as usize, PinOwner::Builder);
+            }
+        }
+        Ok(ClothBundle {
+            cloth,
+            particles,
+            connections,
+            material: self.material,
+        })
+    }
+
     /// The shared fields, for a builder's `Debug`.
     pub(crate) fn debug_fields(&self, d: &mut std::fmt::DebugStruct<'_, '_>) {
         d.field("material", &self.material)
@@ -73,9 +108,10 @@ impl Common {
     }
 }
 
-/// The setters of [`Common`], one definition for both builders; `$origin`
-/// names the point [`position`](ClothBuilder::position) places.
-macro_rules! common_setters {
+/// The setters of [`Common`] and `build_with`, one definition for both
+/// builders; `$origin` names the point [`position`](ClothBuilder::position)
+/// places.
+macro_rules! common_methods {
     ($origin:literal) => {
         /// What the cloth is made of ([`ClothMaterial`]); its density gives
         /// the masses unless [`mass_per_area`](Self::mass_per_area) or
@@ -114,9 +150,22 @@ macro_rules! common_setters {
             self.common.rotation = rotation;
             self
         }
+
+        /// Like [`build`](Self::build), and also validates `settings` for use as
+        /// this cloth's override (a [`ClothSettings`] or a
+        /// [`SimSettings`](crate::SimSettings)): spawn the pair with
+        /// `commands.spawn(pair)`.
+        pub fn build_with(
+            self,
+            settings: impl Into<ClothSettings>,
+        ) -> Result<(ClothBundle, ClothSettings), ClothError> {
+            let settings = settings.into();
+            settings.validate()?;
+            Ok((self.build()?, settings))
+        }
     };
 }
-pub(crate) use common_setters;
+pub(crate) use common_methods;
 
 /// A pin request, resolved when the grid is known.
 enum Pin {
@@ -200,7 +249,7 @@ impl ClothBuilder {
         self
     }
 
-    common_setters!("the grid's centre");
+    common_methods!("the grid's centre");
 
     /// Pins particle `index` (`p = row·cols + column`).
     pub fn pin(mut self, index: u32) -> Self {
@@ -269,9 +318,6 @@ impl ClothBuilder {
                 total * share / ((cols - 1) * (rows - 1)) as f32
             })
             .collect();
-        if masses.iter().any(|m| !(m.is_finite() && *m > 0.0)) {
-            return Err(ClothError::InvalidMass(m));
-        }
         let positions: Vec<Vec3> = (0..count as u32)
             .map(|p| {
                 let uv = grid.rest_uv(p) - 0.5 * size;
@@ -279,31 +325,16 @@ impl ClothBuilder {
             })
             .collect();
         let connections = ClothConnections::grid(cols, rows, &positions);
-        let mut particles = ClothParticles::new(positions, masses);
-        for pin in &self.pins {
-            for p in resolve(&grid, pin)? {
-                particles.pin_by(p as usize, PinOwner::Builder);
-            }
-        }
-        Ok(ClothBundle {
-            cloth: Cloth::from(grid),
-            particles,
+        let cloth = Cloth::from(grid.clone());
+        self.common.bundle(
+            m,
+            cloth,
+            positions,
+            masses,
             connections,
-            material: self.common.material,
-        })
-    }
-
-    /// Like [`build`](Self::build), and also validates `settings` for use as
-    /// this cloth's override (a [`ClothSettings`] or a
-    /// [`SimSettings`](crate::SimSettings)): spawn the pair with
-    /// `commands.spawn(pair)`.
-    pub fn build_with(
-        self,
-        settings: impl Into<ClothSettings>,
-    ) -> Result<(ClothBundle, ClothSettings), ClothError> {
-        let settings = settings.into();
-        settings.validate()?;
-        Ok((self.build()?, settings))
+            &self.pins,
+            |pin| resolve(&grid, pin),
+        )
     }
 }
 

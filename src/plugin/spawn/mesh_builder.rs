@@ -5,13 +5,12 @@ use bevy::math::{Quat, Vec3};
 use bevy::mesh::{Mesh, MeshVertexAttribute, VertexFormat};
 
 use crate::error::ClothError;
-use crate::plugin::spawn::builder::{ClothBuilder, ClothBundle, Common, Mass, common_setters};
+use crate::plugin::spawn::builder::{ClothBuilder, ClothBundle, Common, Mass, common_methods};
 use crate::plugin::spawn::material::ClothMaterial;
 use crate::plugin::spawn::mesh_cloth::{
     MeshLayout, float_attribute, marked_particles, painted_particles,
 };
-use crate::plugin::step::components::{Cloth, ClothConnections, ClothParticles, ClothSettings};
-use crate::sim::particles::PinOwner;
+use crate::plugin::step::components::{Cloth, ClothConnections, ClothSettings};
 
 /// A pin request, resolved against the welded mesh.
 enum Pin {
@@ -79,7 +78,7 @@ impl std::fmt::Debug for MeshClothBuilder {
 }
 
 impl MeshClothBuilder {
-    common_setters!("the mesh's origin");
+    common_methods!("the mesh's origin");
 
     /// Pins the particle of the mesh's vertex `vertex`.
     pub fn pin_vertex(mut self, vertex: u32) -> Self {
@@ -139,38 +138,22 @@ impl MeshClothBuilder {
             let total: f32 = masses.iter().sum();
             masses.fill(total / count as f32);
         }
-        if masses.iter().any(|m| !(m.is_finite() && *m > 0.0)) {
-            return Err(ClothError::InvalidMass(m));
-        }
         let positions: Vec<Vec3> = topology
             .positions
             .iter()
             .map(|&p| self.common.position + rotation * p)
             .collect();
         let connections = ClothConnections(topology.connections());
-        let mut particles = ClothParticles::new(positions, masses);
-        for pin in &self.pins {
-            for p in self.resolve(&shape, pin)? {
-                particles.pin_by(p as usize, PinOwner::Builder);
-            }
-        }
-        Ok(ClothBundle {
-            cloth: Cloth::from(shape),
-            particles,
+        let cloth = Cloth::from(shape.clone());
+        self.common.bundle(
+            m,
+            cloth,
+            positions,
+            masses,
             connections,
-            material: self.common.material,
-        })
-    }
-
-    /// Like [`build`](Self::build), and also validates `settings` for use as
-    /// this cloth's override.
-    pub fn build_with(
-        self,
-        settings: impl Into<ClothSettings>,
-    ) -> Result<(ClothBundle, ClothSettings), ClothError> {
-        let settings = settings.into();
-        settings.validate()?;
-        Ok((self.build()?, settings))
+            &self.pins,
+            |pin| self.resolve(&shape, pin),
+        )
     }
 
     fn resolve(&self, shape: &MeshLayout, pin: &Pin) -> Result<Vec<u32>, ClothError> {
