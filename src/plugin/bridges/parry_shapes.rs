@@ -1,6 +1,7 @@
 //! parry's shapes (avian's and rapier's colliders) as the cloth's collider
 //! shapes.
 
+use std::borrow::Cow;
 use std::sync::Arc;
 
 #[cfg(feature = "avian")]
@@ -64,21 +65,46 @@ fn add(
     margin: f32,
     out: &mut Vec<Piece>,
 ) -> Result<(), String> {
-    match shape.as_typed_shape() {
-        TypedShape::Ball(ball) => out.push(analytic(
-            offset,
+    let typed = shape.as_typed_shape();
+    if let TypedShape::Compound(compound) = typed {
+        for (pose, part) in compound.shapes() {
+            let local = Isometry3d::new(pose.translation, pose.rotation);
+            add(part, offset * local, margin, out)?;
+        }
+        return Ok(());
+    }
+    let grown = |border: Option<f32>| border.map_or(margin, |border| margin + border);
+    if let Some((analytic_shape, local, border)) = as_analytic(&typed) {
+        let pose = local.map_or(offset, |local| offset * local);
+        out.push(analytic(pose, analytic_shape, grown(border)));
+        return Ok(());
+    }
+    let Some((vertices, indices, border)) = as_triangles(&typed) else {
+        return Err(format!("{:?}", shape.shape_type()));
+    };
+    out.push(mesh(offset, &vertices, &indices, grown(border))?);
+    Ok(())
+}
+
+/// A parry shape the cloth takes as one of its analytic shapes: the shape,
+/// its pose in the parry shape's frame (`None`: the same frame) and the
+/// rounding radius (m) of a rounded one.
+fn as_analytic(shape: &TypedShape<'_>) -> Option<(Shape, Option<Isometry3d>, Option<f32>)> {
+    Some(match shape {
+        TypedShape::Ball(ball) => (
             Shape::Sphere {
                 radius: ball.radius,
             },
-            margin,
-        )),
-        TypedShape::Cuboid(cuboid) => out.push(analytic(
-            offset,
+            None,
+            None,
+        ),
+        TypedShape::Cuboid(cuboid) => (
             Shape::Cuboid {
                 half_extents: cuboid.half_extents,
             },
-            margin,
-        )),
+            None,
+            None,
+        ),
         TypedShape::Capsule(capsule) => {
             let (a, b) = (capsule.segment.a, capsule.segment.b);
             let axis = b - a;
@@ -87,109 +113,87 @@ fn add(
             } else {
                 Quat::IDENTITY
             };
-            let local = Isometry3d::new((a + b) / 2.0, turn);
-            out.push(analytic(
-                offset * local,
-                Shape::Capsule {
-                    radius: capsule.radius,
-                    half_length: axis.length() / 2.0,
-                },
-                margin,
-            ));
+            let shape = Shape::Capsule {
+                radius: capsule.radius,
+                half_length: axis.length() / 2.0,
+            };
+            (shape, Some(Isometry3d::new((a + b) / 2.0, turn)), None)
         }
-        TypedShape::Cylinder(cylinder) => out.push(analytic(
-            offset,
+        TypedShape::Cylinder(cylinder) => (
             Shape::Cylinder {
                 radius: cylinder.radius,
                 half_height: cylinder.half_height,
             },
-            margin,
-        )),
-        TypedShape::Cone(cone) => out.push(analytic(
-            offset,
+            None,
+            None,
+        ),
+        TypedShape::Cone(cone) => (
             Shape::Cone {
                 radius: cone.radius,
                 half_height: cone.half_height,
             },
-            margin,
-        )),
-        TypedShape::ConvexPolyhedron(hull) => {
-            let (vertices, indices) = hull.to_trimesh();
-            out.push(mesh(offset, &vertices, &indices, margin)?);
-        }
-        TypedShape::TriMesh(trimesh) => {
-            out.push(mesh(offset, trimesh.vertices(), trimesh.indices(), margin)?);
-        }
-        TypedShape::HeightField(field) => {
-            let (vertices, indices) = field.to_trimesh();
-            out.push(mesh(offset, &vertices, &indices, margin)?);
-        }
-        TypedShape::Triangle(triangle) => {
-            out.push(mesh(
-                offset,
-                &[triangle.a, triangle.b, triangle.c],
-                &[[0, 1, 2]],
-                margin,
-            )?);
-        }
+            None,
+            None,
+        ),
         TypedShape::HalfSpace(half) => {
             let turn = Quat::from_rotation_arc(Vec3::Y, half.normal.normalize());
-            out.push(analytic(
-                offset * Isometry3d::from_rotation(turn),
-                Shape::Plane,
-                margin,
-            ));
+            (Shape::Plane, Some(Isometry3d::from_rotation(turn)), None)
         }
-        TypedShape::Compound(compound) => {
-            for (pose, part) in compound.shapes() {
-                let local = Isometry3d::new(pose.translation, pose.rotation);
-                add(part, offset * local, margin, out)?;
-            }
-        }
-        TypedShape::RoundCuboid(round) => out.push(analytic(
-            offset,
+        TypedShape::RoundCuboid(round) => (
             Shape::Cuboid {
                 half_extents: round.inner_shape.half_extents,
             },
-            margin + round.border_radius,
-        )),
-        TypedShape::RoundCylinder(round) => out.push(analytic(
-            offset,
+            None,
+            Some(round.border_radius),
+        ),
+        TypedShape::RoundCylinder(round) => (
             Shape::Cylinder {
                 radius: round.inner_shape.radius,
                 half_height: round.inner_shape.half_height,
             },
-            margin + round.border_radius,
-        )),
-        TypedShape::RoundCone(round) => out.push(analytic(
-            offset,
+            None,
+            Some(round.border_radius),
+        ),
+        TypedShape::RoundCone(round) => (
             Shape::Cone {
                 radius: round.inner_shape.radius,
                 half_height: round.inner_shape.half_height,
             },
-            margin + round.border_radius,
-        )),
+            None,
+            Some(round.border_radius),
+        ),
+        _ => return None,
+    })
+}
+
+/// The vertices, triangles and rounding radius (m) of a parry shape the
+/// cloth takes as a triangle mesh.
+type Triangles<'a> = (Cow<'a, [Vec3]>, Cow<'a, [[u32; 3]]>, Option<f32>);
+
+/// A parry shape the cloth takes as a triangle mesh ([`Triangles`]).
+fn as_triangles<'a>(shape: &TypedShape<'a>) -> Option<Triangles<'a>> {
+    Some(match shape {
+        TypedShape::ConvexPolyhedron(hull) => {
+            let (vertices, indices) = hull.to_trimesh();
+            (vertices.into(), indices.into(), None)
+        }
+        TypedShape::TriMesh(trimesh) => (trimesh.vertices().into(), trimesh.indices().into(), None),
+        TypedShape::HeightField(field) => {
+            let (vertices, indices) = field.to_trimesh();
+            (vertices.into(), indices.into(), None)
+        }
+        TypedShape::Triangle(t) => (vec![t.a, t.b, t.c].into(), vec![[0, 1, 2]].into(), None),
         TypedShape::RoundConvexPolyhedron(round) => {
             let (vertices, indices) = round.inner_shape.to_trimesh();
-            out.push(mesh(
-                offset,
-                &vertices,
-                &indices,
-                margin + round.border_radius,
-            )?);
+            (vertices.into(), indices.into(), Some(round.border_radius))
         }
         TypedShape::RoundTriangle(round) => {
             let t = &round.inner_shape;
-            out.push(mesh(
-                offset,
-                &[t.a, t.b, t.c],
-                &[[0, 1, 2]],
-                margin + round.border_radius,
-            )?);
+            let vertices = vec![t.a, t.b, t.c].into();
+            (vertices, vec![[0, 1, 2]].into(), Some(round.border_radius))
         }
-        _ => return Err(format!("{:?}", shape.shape_type())),
-    }
-    Ok(())
+        _ => return None,
+    })
 }
 
 #[cfg(test)]
