@@ -1,7 +1,7 @@
 //! A physics engine's body moving over the coming fixed step, as the
 //! bridges hand its colliders to the cloth.
 
-use bevy::math::{Isometry3d, Quat, Vec3};
+use bevy::math::{Isometry3d, Mat3, Quat, Vec3};
 
 /// A body's motion over the coming step: its centre of mass (world, m) and
 /// linear (m/s) and angular (rad/s) velocity.
@@ -26,5 +26,32 @@ impl Motion {
             self.centre + turn * (at - self.centre) + self.linear * dt,
             (turn * pose.rotation).normalize(),
         )
+    }
+}
+
+/// How a collider's body moves over the step, and what the cloth's solve
+/// knows of it: a static body or none stands still, infinitely heavy.
+pub(crate) struct Carrier {
+    /// Its motion (centre in m, velocities in m/s and rad/s).
+    pub(crate) motion: Motion,
+    /// Whether it is dynamic (the cloth's contacts push it).
+    pub(crate) dynamic: bool,
+    /// Mass, kg (infinite unless dynamic with two-way coupling).
+    pub(crate) mass: f32,
+    /// World inverse inertia, 1/(kg·m²).
+    pub(crate) inverse_inertia: Mat3,
+    /// Gravity on it, m/s².
+    pub(crate) acceleration: Vec3,
+}
+
+impl Default for Carrier {
+    fn default() -> Self {
+        Self {
+            motion: Motion::default(),
+            dynamic: false,
+            mass: f32::INFINITY,
+            inverse_inertia: Mat3::ZERO,
+            acceleration: Vec3::ZERO,
+        }
     }
 }

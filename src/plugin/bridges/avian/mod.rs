@@ -57,7 +57,7 @@ use bevy::prelude::*;
 use bevy::time::Fixed;
 
 use crate::plugin::ClothSchedule;
-use crate::plugin::bridges::body_motion::Motion;
+use crate::plugin::bridges::body_motion::{Carrier, Motion};
 use crate::plugin::bridges::parry_shapes::{self as shapes, Piece};
 use crate::plugin::collision::{
     ClothCollider, ClothColliderScene, ClothColliderSources, ClothContactImpulses,
@@ -234,34 +234,9 @@ fn feed_colliders(
 ) {
     let dt = time.timestep().as_secs_f32();
     for mut item in &mut colliders {
-        // The pieces: converted once, again when the collider changes.
         let entity = item.entity;
-        let mut fresh = None;
-        let pieces = match item.shape.as_deref_mut() {
-            Some(shape) => {
-                if item.collider.is_changed() {
-                    *shape = ClothAvianShape::of(&item.collider);
-                }
-                shape.pieces.clone()
-            }
-            None => fresh
-                .insert(ClothAvianShape::of(&item.collider))
-                .pieces
-                .clone(),
-        };
-        if let Some(fresh) = fresh {
-            commands.entity(entity).try_insert(fresh);
-        }
-        let pieces = match pieces {
-            Ok(pieces) => pieces,
-            Err(kind) => {
-                if warned.insert(entity) {
-                    warn!(
-                        "avian collider {entity} is ignored by cloth: its shape ({kind}) is not supported"
-                    );
-                }
-                continue;
-            }
+        let Some(pieces) = pieces_of(&mut item, &mut commands, &mut warned) else {
+            continue;
         };
         // Where the collider is and how it moves: through its body.
         let own = Isometry3d::new(item.position.0, item.rotation.0);
@@ -277,39 +252,19 @@ fn feed_colliders(
             }
             _ => own,
         };
-        let mut motion = Motion::default();
-        let mut dynamic = false;
-        let mut mass = f32::INFINITY;
-        let mut inverse_inertia = Mat3::ZERO;
-        let mut acceleration = Vec3::ZERO;
-        if let Some(b) = &body
-            && !b.body.is_static()
-        {
-            dynamic = b.body.is_dynamic();
-            if dynamic && settings.two_way {
-                let scale = b.gravity_scale.map_or(1.0, |g| g.0);
-                acceleration = gravity.as_ref().map_or(Vec3::ZERO, |g| g.0) * scale;
-                // Zero inverse mass (infinitely heavy) stays infinite.
-                mass = b.mass.map_or(f32::INFINITY, |m| 1.0 / m.inverse());
-                inverse_inertia = b
-                    .inertia
-                    .map_or(Mat3::ZERO, |i| i.rotated(b.rotation.0).inverse().to_mat3());
+        let Carrier {
+            motion,
+            dynamic,
+            mass,
+            inverse_inertia,
+            acceleration,
+        } = match &body {
+            Some(b) if !b.body.is_static() => {
+                let gravity = gravity.as_deref();
+                carrier(b, body_entity, &settings, gravity, &mut warned)
             }
-            let centre = b.centre.map_or(Vec3::ZERO, |c| c.0);
-            motion = Motion {
-                centre: b.position.0 + b.rotation.0 * centre,
-                linear: b.velocity.map_or(Vec3::ZERO, |v| v.0),
-                angular: b.spin.map_or(Vec3::ZERO, |w| w.0),
-            };
-            if !motion.is_finite() {
-                if warned.insert(body_entity) {
-                    warn!(
-                        "avian body {body_entity} has a non-finite velocity: cloth takes it as still"
-                    );
-                }
-                motion = Motion::default();
-            }
-        }
+            _ => Carrier::default(),
+        };
         let end = motion.advance(pose, dt);
         let body_friction = body.as_ref().and_then(|b| b.friction);
         let body_restitution = body.as_ref().and_then(|b| b.restitution);
@@ -354,6 +309,82 @@ fn feed_colliders(
             }
         }
     }
+}
+
+/// A collider's pieces, converted once and again when the collider
+/// changes (kept in its [`ClothAvianShape`]), or `None`, with a warning
+/// once, for a shape the cloth cannot use.
+fn pieces_of(
+    item: &mut ColliderDataItem<'_, '_>,
+    commands: &mut Commands,
+    warned: &mut HashSet<Entity>,
+) -> Option<Arc<[Piece]>> {
+    let entity = item.entity;
+    let mut fresh = None;
+    let pieces = match item.shape.as_deref_mut() {
+        Some(shape) => {
+            if item.collider.is_changed() {
+                *shape = ClothAvianShape::of(&item.collider);
+            }
+            shape.pieces.clone()
+        }
+        None => fresh
+            .insert(ClothAvianShape::of(&item.collider))
+            .pieces
+            .clone(),
+    };
+    if let Some(fresh) = fresh {
+        commands.entity(entity).try_insert(fresh);
+    }
+    match pieces {
+        Ok(pieces) => Some(pieces),
+        Err(kind) => {
+            if warned.insert(entity) {
+                warn!(
+                    "avian collider {entity} is ignored by cloth: its shape ({kind}) is not supported"
+                );
+            }
+            None
+        }
+    }
+}
+
+/// A kinematic or dynamic `body` as a [`Carrier`]: with two-way coupling a
+/// dynamic one brings its mass, inertia and gravity; a non-finite velocity
+/// is taken as still, with a warning once.
+fn carrier(
+    b: &BodyDataItem<'_, '_>,
+    body_entity: Entity,
+    settings: &ClothAvianSettings,
+    gravity: Option<&Gravity>,
+    warned: &mut HashSet<Entity>,
+) -> Carrier {
+    let mut carrier = Carrier {
+        dynamic: b.body.is_dynamic(),
+        ..default()
+    };
+    if carrier.dynamic && settings.two_way {
+        let scale = b.gravity_scale.map_or(1.0, |g| g.0);
+        carrier.acceleration = gravity.map_or(Vec3::ZERO, |g| g.0) * scale;
+        // Zero inverse mass (infinitely heavy) stays infinite.
+        carrier.mass = b.mass.map_or(f32::INFINITY, |m| 1.0 / m.inverse());
+        carrier.inverse_inertia = b
+            .inertia
+            .map_or(Mat3::ZERO, |i| i.rotated(b.rotation.0).inverse().to_mat3());
+    }
+    let centre = b.centre.map_or(Vec3::ZERO, |c| c.0);
+    carrier.motion = Motion {
+        centre: b.position.0 + b.rotation.0 * centre,
+        linear: b.velocity.map_or(Vec3::ZERO, |v| v.0),
+        angular: b.spin.map_or(Vec3::ZERO, |w| w.0),
+    };
+    if !carrier.motion.is_finite() {
+        if warned.insert(body_entity) {
+            warn!("avian body {body_entity} has a non-finite velocity: cloth takes it as still");
+        }
+        carrier.motion = Motion::default();
+    }
+    carrier
 }
 
 /// What [`push_bodies`] reads and writes of a body.

@@ -59,7 +59,7 @@ use bevy_rapier3d::rapier::dynamics::{CoefficientCombineRule, RigidBody};
 use bevy_rapier3d::rapier::geometry::Collider;
 
 use crate::plugin::ClothSchedule;
-use crate::plugin::bridges::body_motion::Motion;
+use crate::plugin::bridges::body_motion::{Carrier, Motion};
 use crate::plugin::bridges::parry_shapes::{self as shapes, Piece};
 use crate::plugin::collision::{
     ClothCollider, ClothColliderScene, ClothColliderSources, ClothContactImpulses,
@@ -230,62 +230,25 @@ fn feed_colliders(
             if body.is_some_and(|b| !b.is_enabled() || b.soft_body().is_some()) {
                 continue;
             }
-            // The pieces: converted once, again when the shape is replaced.
-            let key = shape_key(collider);
-            let cached = cache.entry(entity).or_insert_with(|| Cached {
-                shape: usize::MAX,
-                pieces: Err(String::new()),
-                seen: false,
-            });
-            if cached.shape != key {
-                cached.shape = key;
-                cached.pieces = shapes::pieces(collider.shared_shape()).map(Arc::from);
-            }
-            cached.seen = true;
-            let pieces = match &cached.pieces {
-                Ok(pieces) => pieces.clone(),
-                Err(kind) => {
-                    if warned.insert(entity) {
-                        warn!(
-                            "rapier collider {entity} is ignored by cloth: its shape ({kind}) is not supported"
-                        );
-                    }
-                    continue;
-                }
+            let Some(pieces) = pieces_of(&mut cache, entity, collider, &mut warned) else {
+                continue;
             };
             let at = collider.position();
             let pose = Isometry3d::new(at.translation, at.rotation);
-            let mut motion = Motion::default();
-            let mut dynamic = false;
-            let mut mass = f32::INFINITY;
-            let mut inverse_inertia = Mat3::ZERO;
-            let mut acceleration = Vec3::ZERO;
-            if let Some(body) = body
-                && !body.is_fixed()
-            {
-                dynamic = body.is_dynamic();
-                if dynamic && settings.two_way && body.mass() > 0.0 {
-                    mass = body.mass();
-                    acceleration = gravity * body.gravity_scale();
-                    let i = body.mass_properties().effective_world_inv_inertia;
-                    inverse_inertia = Mat3::from_cols(
-                        Vec3::new(i.m11, i.m12, i.m13),
-                        Vec3::new(i.m12, i.m22, i.m23),
-                        Vec3::new(i.m13, i.m23, i.m33),
-                    );
+            let Carrier {
+                motion,
+                dynamic,
+                mass,
+                inverse_inertia,
+                acceleration,
+            } = match body {
+                Some(body) if !body.is_fixed() => {
+                    let velocity = Entity::try_from_bits(body.user_data as u64)
+                        .and_then(|e| velocities.get(e).ok());
+                    carrier(body, velocity, entity, (settings, gravity), &mut warned)
                 }
-                let velocity = Entity::try_from_bits(body.user_data as u64)
-                    .and_then(|e| velocities.get(e).ok());
-                motion = motion_of(body, velocity);
-                if !motion.is_finite() {
-                    if warned.insert(entity) {
-                        warn!(
-                            "rapier collider {entity} moves with a non-finite velocity: cloth takes it as still"
-                        );
-                    }
-                    motion = Motion::default();
-                }
-            }
+                _ => Carrier::default(),
+            };
             let end = motion.advance(pose, dt);
             let friction = CoefficientCombineRule::combine(
                 collider.friction(),
@@ -326,6 +289,76 @@ fn feed_colliders(
         }
     }
     cache.retain(|_, cached| cached.seen);
+}
+
+/// A collider's pieces, converted once and again when its shape is
+/// replaced (kept in `cache`, marked seen), or `None`, with a warning once,
+/// for a shape the cloth cannot use.
+fn pieces_of(
+    cache: &mut HashMap<Entity, Cached>,
+    entity: Entity,
+    collider: &Collider,
+    warned: &mut HashSet<Entity>,
+) -> Option<Arc<[Piece]>> {
+    let key = shape_key(collider);
+    let cached = cache.entry(entity).or_insert_with(|| Cached {
+        shape: usize::MAX,
+        pieces: Err(String::new()),
+        seen: false,
+    });
+    if cached.shape != key {
+        cached.shape = key;
+        cached.pieces = shapes::pieces(collider.shared_shape()).map(Arc::from);
+    }
+    cached.seen = true;
+    match &cached.pieces {
+        Ok(pieces) => Some(pieces.clone()),
+        Err(kind) => {
+            if warned.insert(entity) {
+                warn!(
+                    "rapier collider {entity} is ignored by cloth: its shape ({kind}) is not supported"
+                );
+            }
+            None
+        }
+    }
+}
+
+/// A kinematic or dynamic rapier `body` as a [`Carrier`], moving at its
+/// `velocity` component if it has one: with two-way coupling a dynamic one
+/// of positive mass brings its mass, inertia and `gravity` (m/s²); a
+/// non-finite velocity is taken as still, with a warning once.
+fn carrier(
+    body: &RigidBody,
+    velocity: Option<&Velocity>,
+    entity: Entity,
+    (settings, gravity): (&ClothRapierPlugin, Vec3),
+    warned: &mut HashSet<Entity>,
+) -> Carrier {
+    let mut carrier = Carrier {
+        dynamic: body.is_dynamic(),
+        ..default()
+    };
+    if carrier.dynamic && settings.two_way && body.mass() > 0.0 {
+        carrier.mass = body.mass();
+        carrier.acceleration = gravity * body.gravity_scale();
+        let i = body.mass_properties().effective_world_inv_inertia;
+        carrier.inverse_inertia = Mat3::from_cols(
+            Vec3::new(i.m11, i.m12, i.m13),
+            Vec3::new(i.m12, i.m22, i.m23),
+            Vec3::new(i.m13, i.m23, i.m33),
+        );
+    }
+    carrier.motion = motion_of(body, velocity);
+    if !carrier.motion.is_finite() {
+        if warned.insert(entity) {
+            warn!(
+                "rapier collider {entity} moves with a non-finite velocity: cloth takes it as still"
+            );
+        }
+        carrier.motion = Motion::default();
+    }
+    carrier
 }
 
 /// The bodies whose gravity [`push_bodies`] cancelled over the last step:
