@@ -404,22 +404,7 @@ impl ContactBuffers {
         }
         self.hold.resize(n, Hold::Free);
         self.load.resize(n, [0.0; 2]);
-        // How many contacts each free body has: each shows its share of
-        // the body's mass along the surface to sliding friction.
-        self.counts.clear();
-        self.counts.resize(self.bodies.len(), 0.0);
-        self.touches.resize(n, Touches::default());
-        for c in &self.list {
-            let Some(touches) = self.touches.get_mut(c.particle as usize) else {
-                continue;
-            };
-            if let Some(count) = self.counts.get_mut(c.body as usize) {
-                *count += 1.0;
-                touches.body = true;
-            } else if c.body == NO_BODY && !c.edge && c.gap <= SHEET_GAP {
-                touches.support = c.normal;
-            }
-        }
+        self.count_touches(n);
         self.press_sheets();
         let gamma = beta / alpha;
         for (index, c) in self.list.iter().enumerate() {
@@ -509,6 +494,35 @@ impl ContactBuffers {
                 friction,
             });
         }
+        self.forget_touches();
+        self.any = !self.held.is_empty();
+        self.any
+    }
+
+    /// Counts the contacts of each free body (each shows its share of the
+    /// body's mass along the surface to sliding friction) and marks what
+    /// each of the `n` particles touches: a body, or a fixed surface it
+    /// lies on.
+    fn count_touches(&mut self, n: usize) {
+        self.counts.clear();
+        self.counts.resize(self.bodies.len(), 0.0);
+        self.touches.resize(n, Touches::default());
+        for c in &self.list {
+            let Some(touches) = self.touches.get_mut(c.particle as usize) else {
+                continue;
+            };
+            if let Some(count) = self.counts.get_mut(c.body as usize) {
+                *count += 1.0;
+                touches.body = true;
+            } else if c.body == NO_BODY && !c.edge && c.gap <= SHEET_GAP {
+                touches.support = c.normal;
+            }
+        }
+    }
+
+    /// Clears what [`begin`](Self::begin) marked per particle (touches,
+    /// holds, loads) for the next step.
+    fn forget_touches(&mut self) {
         for c in &self.list {
             if let Some(touches) = self.touches.get_mut(c.particle as usize) {
                 *touches = Touches::default();
@@ -516,8 +530,6 @@ impl ContactBuffers {
         }
         self.hold.fill(Hold::Free);
         self.load.fill([0.0; 2]);
-        self.any = !self.held.is_empty();
-        self.any
     }
 
     /// Turns the contact of a body with a particle lying on a fixed surface
