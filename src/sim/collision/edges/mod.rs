@@ -121,22 +121,8 @@ pub fn predict_edge_contacts(
         ),
         Geometry::Mesh(mesh) => mesh.bounds(),
     };
-    let (lo, hi) = (lo - Vec3::splat(cap), hi + Vec3::splat(cap));
-    near.clear();
-    near.extend(x.iter().map(|&p| {
-        let local = to_local.transform_point3(p);
-        if local.cmplt(lo).any() || local.cmpgt(hi).any() {
-            return (local, f32::INFINITY, Vec3::ZERO, 0.0);
-        }
-        let (d, n) = match collider.geometry {
-            Geometry::Shape(ref shape) => shape.distance(local),
-            Geometry::Mesh(mesh) => {
-                mesh_distance(mesh, local, cap).unwrap_or((f32::INFINITY, Vec3::ZERO))
-            }
-        };
-        let surface = (end.transform_point3(local) - p).length() / dt;
-        (local, d, n, surface)
-    }));
+    let bounds = (lo - Vec3::splat(cap), hi + Vec3::splat(cap));
+    measure(collider, x, (to_local, end), (bounds, cap, dt), near);
     for link in links.iter().flat_map(|l| l.iter()) {
         let (a, b) = (link.a as usize, link.b as usize);
         let (Some(&(la, da, na, ua)), Some(&(lb, db, nb, ub))) = (near.get(a), near.get(b)) else {
@@ -203,34 +189,74 @@ pub fn predict_edge_contacts(
         if -gap > 2.0 * ab.length() + (v[a].length() + v[b].length()) * dt {
             continue;
         }
-        // Each free end moves the link's point by its share: with both
-        // free, each keeps the gap; with one pinned, the free one carries
-        // what the pin's own motion does not.
         let ends = [(a, wa, 1.0 - t, b, wb), (b, wb, t, a, wa)];
-        for (p, wp, share, other, wo) in ends {
-            if wp == 0.0 {
+        push_ends(ends, (normal, gap, velocity), (v, dt), out);
+    }
+}
+
+/// Each particle's local position in the collider's frame at the start
+/// (`to_local`), its distance (m) and normal there, and the speed (m/s) at
+/// which the collider's surface moves there over the step (to `end`), into
+/// `near`; a particle outside `bounds` (local, m) is infinitely far.
+fn measure(
+    collider: &MovingCollider,
+    x: &[Vec3],
+    (to_local, end): (Affine3A, Affine3A),
+    ((lo, hi), cap, dt): ((Vec3, Vec3), f32, f32),
+    near: &mut Vec<(Vec3, f32, Vec3, f32)>,
+) {
+    near.clear();
+    near.extend(x.iter().map(|&p| {
+        let local = to_local.transform_point3(p);
+        if local.cmplt(lo).any() || local.cmpgt(hi).any() {
+            return (local, f32::INFINITY, Vec3::ZERO, 0.0);
+        }
+        let (d, n) = match collider.geometry {
+            Geometry::Shape(ref shape) => shape.distance(local),
+            Geometry::Mesh(mesh) => {
+                mesh_distance(mesh, local, cap).unwrap_or((f32::INFINITY, Vec3::ZERO))
+            }
+        };
+        let surface = (end.transform_point3(local) - p).length() / dt;
+        (local, d, n, surface)
+    }));
+}
+
+/// The contacts of a link's two `ends` (each: particle, inverse mass,
+/// share of the link's point, the other end and its inverse mass) with the
+/// surface at its point (`normal`, `gap` m, the surface's `velocity` m/s).
+/// Each free end moves the link's point by its share: with both free, each
+/// keeps the gap; with one pinned, the free one carries what the pin's own
+/// motion (`v`, m/s, over `dt` s) does not.
+fn push_ends(
+    ends: [(usize, f32, f32, usize, f32); 2],
+    (normal, gap, velocity): (Vec3, f32, Vec3),
+    (v, dt): (&[Vec3], f32),
+    out: &mut Vec<SolveContact>,
+) {
+    for (p, wp, share, other, wo) in ends {
+        if wp == 0.0 {
+            continue;
+        }
+        let gap = if wo == 0.0 {
+            if share < MIN_SHARE {
                 continue;
             }
-            let gap = if wo == 0.0 {
-                if share < MIN_SHARE {
-                    continue;
-                }
-                let pin = (1.0 - share) * dt * (v[other] - velocity).dot(normal);
-                (gap + pin) / share
-            } else {
-                gap
-            };
-            out.push(SolveContact {
-                particle: p as u32,
-                normal,
-                gap,
-                velocity,
-                friction: 0.0,
-                source: 0,
-                body: NO_BODY,
-                edge: true,
-            });
-        }
+            let pin = (1.0 - share) * dt * (v[other] - velocity).dot(normal);
+            (gap + pin) / share
+        } else {
+            gap
+        };
+        out.push(SolveContact {
+            particle: p as u32,
+            normal,
+            gap,
+            velocity,
+            friction: 0.0,
+            source: 0,
+            body: NO_BODY,
+            edge: true,
+        });
     }
 }
 
