@@ -1,7 +1,11 @@
 //! A physics engine's body moving over the coming fixed step, as the
 //! bridges hand its colliders to the cloth.
 
+use bevy::ecs::entity::Entity;
 use bevy::math::{Isometry3d, Mat3, Quat, Vec3};
+
+use crate::plugin::bridges::parry_shapes::Piece;
+use crate::plugin::collision::{ClothContactLayers, SceneCollider};
 
 /// A body's motion over the coming step: its centre of mass (world, m) and
 /// linear (m/s) and angular (rad/s) velocity.
@@ -53,5 +57,37 @@ impl Default for Carrier {
             inverse_inertia: Mat3::ZERO,
             acceleration: Vec3::ZERO,
         }
+    }
+}
+
+impl Carrier {
+    /// The scene colliders of `entity`'s `pieces`, carried by this body from
+    /// `pose` at the start of the step to `end`, with the combined friction
+    /// and restitution (dimensionless) and its `layers`; with `two_way` a
+    /// dynamic body feels the cloth's impulses.
+    pub(crate) fn colliders<'a>(
+        &'a self,
+        entity: Entity,
+        pieces: &'a [Piece],
+        (pose, end): (Isometry3d, Isometry3d),
+        (friction, restitution): (f32, f32),
+        (layers, two_way): (ClothContactLayers, bool),
+    ) -> impl Iterator<Item = SceneCollider> + 'a {
+        pieces.iter().map(move |piece| {
+            SceneCollider::new(
+                entity,
+                piece.shape.clone(),
+                pose * piece.offset,
+                end * piece.offset,
+            )
+            .with_friction(friction)
+            .with_restitution(restitution)
+            .with_margin(piece.margin)
+            .with_layers(layers)
+            .with_feedback(self.dynamic && two_way)
+            .with_mass(self.mass)
+            .with_inertia(self.motion.centre, self.inverse_inertia)
+            .with_acceleration(self.acceleration)
+        })
     }
 }

@@ -61,7 +61,7 @@ use crate::plugin::bridges::body_motion::{Carrier, Motion};
 use crate::plugin::bridges::parry_shapes::{self as shapes, Piece};
 use crate::plugin::collision::{
     ClothCollider, ClothColliderScene, ClothColliderSources, ClothContactImpulses,
-    ClothContactLayers, SceneCollider,
+    ClothContactLayers,
 };
 use crate::plugin::step::schedule::ClothSystems;
 
@@ -252,20 +252,14 @@ fn feed_colliders(
             }
             _ => own,
         };
-        let Carrier {
-            motion,
-            dynamic,
-            mass,
-            inverse_inertia,
-            acceleration,
-        } = match &body {
+        let carried = match &body {
             Some(b) if !b.body.is_static() => {
                 let gravity = gravity.as_deref();
                 carrier(b, body_entity, &settings, gravity, &mut warned)
             }
             _ => Carrier::default(),
         };
-        let end = motion.advance(pose, dt);
+        let end = carried.motion.advance(pose, dt);
         let body_friction = body.as_ref().and_then(|b| b.friction);
         let body_restitution = body.as_ref().and_then(|b| b.restitution);
         let friction = item
@@ -287,21 +281,9 @@ fn feed_colliders(
             .layers
             .copied()
             .map_or(ClothContactLayers::ALL, ClothContactLayers::from);
-        for piece in pieces.iter() {
-            let collider = SceneCollider::new(
-                item.entity,
-                piece.shape.clone(),
-                pose * piece.offset,
-                end * piece.offset,
-            )
-            .with_friction(friction)
-            .with_restitution(restitution)
-            .with_margin(piece.margin)
-            .with_layers(layers)
-            .with_feedback(dynamic && settings.two_way)
-            .with_mass(mass)
-            .with_inertia(motion.centre, inverse_inertia)
-            .with_acceleration(acceleration);
+        let surface = (friction, restitution);
+        let how = (layers, settings.two_way);
+        for collider in carried.colliders(entity, &pieces, (pose, end), surface, how) {
             if let Err(error) = scene.push(collider)
                 && warned.insert(entity)
             {

@@ -63,7 +63,7 @@ use crate::plugin::bridges::body_motion::{Carrier, Motion};
 use crate::plugin::bridges::parry_shapes::{self as shapes, Piece};
 use crate::plugin::collision::{
     ClothCollider, ClothColliderScene, ClothColliderSources, ClothContactImpulses,
-    ClothContactLayers, SceneCollider,
+    ClothContactLayers,
 };
 use crate::plugin::step::schedule::{ClothSystems, MainThread};
 
@@ -235,13 +235,7 @@ fn feed_colliders(
             };
             let at = collider.position();
             let pose = Isometry3d::new(at.translation, at.rotation);
-            let Carrier {
-                motion,
-                dynamic,
-                mass,
-                inverse_inertia,
-                acceleration,
-            } = match body {
+            let carried = match body {
                 Some(body) if !body.is_fixed() => {
                     let velocity = Entity::try_from_bits(body.user_data as u64)
                         .and_then(|e| velocities.get(e).ok());
@@ -249,7 +243,7 @@ fn feed_colliders(
                 }
                 _ => Carrier::default(),
             };
-            let end = motion.advance(pose, dt);
+            let end = carried.motion.advance(pose, dt);
             let friction = CoefficientCombineRule::combine(
                 collider.friction(),
                 settings.cloth_friction,
@@ -265,22 +259,10 @@ fn feed_colliders(
             .clamp(0.0, 1.0);
             let groups = collider.collision_groups();
             let layers = ClothContactLayers::new(groups.memberships.bits(), groups.filter.bits());
-            for piece in pieces.iter() {
-                let scene_collider = SceneCollider::new(
-                    entity,
-                    piece.shape.clone(),
-                    pose * piece.offset,
-                    end * piece.offset,
-                )
-                .with_friction(friction)
-                .with_restitution(restitution)
-                .with_margin(piece.margin)
-                .with_layers(layers)
-                .with_feedback(dynamic && settings.two_way)
-                .with_mass(mass)
-                .with_inertia(motion.centre, inverse_inertia)
-                .with_acceleration(acceleration);
-                if let Err(error) = scene.push(scene_collider)
+            let surface = (friction, restitution);
+            let how = (layers, settings.two_way);
+            for collider in carried.colliders(entity, &pieces, (pose, end), surface, how) {
+                if let Err(error) = scene.push(collider)
                     && warned.insert(entity)
                 {
                     warn!("rapier collider {entity} is ignored by cloth: {error}");
