@@ -49,6 +49,7 @@
 //! ```
 
 pub mod adaptive;
+pub mod build;
 pub mod collision;
 pub mod connections;
 pub mod crease;

@@ -19,6 +19,7 @@ use crate::error::ClothError;
 use crate::plugin::step::components::{Cloth, ClothParticles};
 use crate::plugin::step::sleep::ClothSleep;
 use crate::sim::collision::cloths::{ClothObstacle, ObstacleBuffers, Pair};
+use crate::sim::collision::scene::NearCloths;
 use crate::sim::grid::Faces;
 use crate::sim::integrate::implicit::SolveContact;
 
@@ -303,10 +304,12 @@ impl ClothContacts<'_> {
         let from = sub.from * (sub.dt / span);
         (from, from + sub.dt)
     }
+}
 
+impl NearCloths for ClothContacts<'_> {
     /// Adds the contacts that hold the cloth (positions `x` m, velocities
     /// `v` m/s, inverse masses `w` 1/kg) off its neighbours over `sub`.
-    pub(crate) fn predict(
+    fn predict(
         &mut self,
         sub: crate::sim::step::Substep,
         (x, v, w): (&[Vec3], &[Vec3], &[f32]),
@@ -385,7 +388,7 @@ impl ClothContacts<'_> {
     /// After a substep: puts back the particles and edges that passed
     /// through a neighbour (`start` → `x`, m; `v`, m/s; `w`, 1/kg; `held` by
     /// the solve, or empty).
-    pub(crate) fn resolve(
+    fn resolve(
         &mut self,
         sub: crate::sim::step::Substep,
         (start, x, v): (&[Vec3], &mut [Vec3], &mut [Vec3]),
@@ -433,5 +436,9 @@ impl ClothContacts<'_> {
                 &mut self.scratch.buffers,
             );
         }
+    }
+
+    fn contacts(&self) -> u32 {
+        self.contacts
     }
 }

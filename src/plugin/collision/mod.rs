@@ -34,10 +34,8 @@
 //! poses, the components).
 
 mod cloths;
-mod contacts;
 mod from_mesh;
 mod scene;
-mod watch;
 
 use std::sync::Arc;
 
@@ -60,30 +58,16 @@ use crate::sim::collision::contact::seed_triangle_pass;
 pub use crate::sim::collision::{Counts, Shape, TriMesh};
 use crate::sim::particles::Particles;
 
+pub use crate::sim::collision::bounds;
+pub use crate::sim::collision::scene::{
+    ClothContactLayers, ColliderKey, ColliderShape, ContactImpulse, MeshShape, SceneCollider,
+};
 pub(crate) use cloths::ClothToClothScratch;
 pub(crate) use cloths::{ClothContacts, obstacles_in_use, take_obstacles};
 pub use cloths::{ClothObstacles, ClothToClothCollision};
-pub(crate) use contacts::{Feedback, SceneContacts};
 pub use scene::{
-    ClothColliderScene, ClothColliderSources, ClothContactImpulses, ClothContactLayers,
-    ClothReportImpulses, ContactImpulse, SceneCollider,
+    ClothColliderScene, ClothColliderSources, ClothContactImpulses, ClothReportImpulses,
 };
-pub(crate) use watch::SleepWatch;
-
-/// A triangle mesh shared between colliders (opaque to reflection).
-#[derive(Clone, Debug, Reflect)]
-#[reflect(opaque, Debug, Clone)]
-pub struct MeshShape(pub Arc<TriMesh>);
-
-/// The surface of a [`ClothCollider`].
-#[derive(Clone, Debug, Reflect)]
-pub enum ColliderShape {
-    /// An analytic shape (exact distances, swept against fast motion).
-    Analytic(Shape),
-    /// A triangle mesh (vertex–triangle tests with a BVH, plus the paper's
-    /// triangle–triangle test).
-    Mesh(MeshShape),
-}
 
 /// An object the cloth collides with, on any entity with a `Transform`.
 ///
@@ -190,30 +174,6 @@ impl ClothCollider {
             return Err(ClothError::InvalidCollider("restitution must be in [0, 1]"));
         }
         Ok(())
-    }
-}
-
-impl ColliderShape {
-    /// Checks an analytic shape's dimensions (finite, positive); a mesh is
-    /// valid once built.
-    pub fn validate(&self) -> Result<(), ClothError> {
-        match self {
-            ColliderShape::Analytic(shape) if !shape.is_valid() => Err(
-                ClothError::InvalidCollider("shape dimensions must be finite and positive"),
-            ),
-            _ => Ok(()),
-        }
-    }
-
-    /// Centre (local, m) and radius (m) of a ball holding the shape.
-    pub fn bounding_ball(&self) -> (Vec3, f32) {
-        match self {
-            ColliderShape::Analytic(shape) => (Vec3::ZERO, shape.bounding_radius()),
-            ColliderShape::Mesh(mesh) => {
-                let (min, max) = mesh.0.bounds();
-                ((min + max) / 2.0, (max - min).length() / 2.0)
-            }
-        }
     }
 }
 
@@ -325,6 +285,7 @@ pub(crate) fn configure(app: &mut App, schedule: Interned<dyn ScheduleLabel>) {
         .register_type::<ClothSelfCollision>()
         .register_type::<ClothCollisionStats>()
         .register_type::<ClothContactLayers>()
+        .register_type_data::<ClothContactLayers, ReflectComponent>()
         .register_type::<ClothReportImpulses>()
         .configure_sets(schedule, ClothColliderSources.in_set(ClothSystems::Prepare))
         .add_systems(
@@ -474,12 +435,4 @@ fn seed_pass(
     }
     stats.collider_tests += counts.tests as u64;
     stats.collider_contacts += counts.contacts as u64;
-}
-
-/// The box around `x` (m) grown by `pad` m.
-pub fn bounds(x: &[Vec3], pad: f32) -> (Vec3, Vec3) {
-    let (lo, hi) = x.iter().fold((Vec3::MAX, Vec3::MIN), |(lo, hi), &p| {
-        (lo.min(p), hi.max(p))
-    });
-    (lo - pad, hi + pad)
 }

@@ -11,15 +11,9 @@ use crate::plugin::step::components::Cloth;
 use crate::plugin::step::components::ClothConnections;
 use crate::plugin::step::components::ClothParticles;
 use crate::plugin::step::components::ClothSettings;
-use crate::sim::grid::{Grid, GridCorner, GridEdge, MAX_PARTICLES};
+use crate::sim::build::{Mass, checked_placement, placed};
+use crate::sim::grid::{Grid, GridCorner, GridEdge};
 use crate::sim::particles::PinOwner;
-
-/// How the cloth's mass is given (kg/m² or kg).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub(crate) enum Mass {
-    PerArea(f32),
-    Total(f32),
-}
 
 /// What both builders share: the material, the mass and the placement.
 #[derive(Clone, Debug)]
@@ -52,15 +46,8 @@ impl Common {
         self.material.validate()?;
         let fabric_density = self.material.fabric().map_or(0.15, |f| f.density);
         let mass = self.mass.unwrap_or(Mass::PerArea(fabric_density));
-        let (Mass::PerArea(m) | Mass::Total(m)) = mass;
-        if !(m.is_finite() && m > 0.0) {
-            return Err(ClothError::InvalidMass(m));
-        }
-        let length = self.rotation.length();
-        if !(self.position.is_finite() && self.rotation.is_finite() && length > 1e-6) {
-            return Err(ClothError::InvalidPlacement);
-        }
-        Ok((mass, self.rotation / length))
+        mass.checked()?;
+        Ok((mass, checked_placement(self.position, self.rotation)?))
     }
 
     /// The bundle both builders make: checks the particles' `masses` (kg;
@@ -123,13 +110,13 @@ macro_rules! common_methods {
 
         /// Areal density in kg/m² (instead of the material's).
         pub fn mass_per_area(mut self, kg_per_m2: f32) -> Self {
-            self.common.mass = Some(Mass::PerArea(kg_per_m2));
+            self.common.mass = Some($crate::sim::build::Mass::PerArea(kg_per_m2));
             self
         }
 
         /// Total mass in kg (instead of the material's density).
         pub fn total_mass(mut self, kg: f32) -> Self {
-            self.common.mass = Some(Mass::Total(kg));
+            self.common.mass = Some($crate::sim::build::Mass::Total(kg));
             self
         }
 
@@ -281,50 +268,12 @@ impl ClothBuilder {
 
     /// Checks the description and makes the cloth.
     pub fn build(self) -> Result<ClothBundle, ClothError> {
-        let (cols, rows) = (self.cols, self.rows);
-        if cols < 3 || rows < 3 {
-            return Err(ClothError::GridTooSmall { cols, rows });
-        }
-        if cols as u64 * rows as u64 > MAX_PARTICLES as u64 {
-            return Err(ClothError::GridTooLarge {
-                cols,
-                rows,
-                max: MAX_PARTICLES,
-            });
-        }
-        let size = self.size;
-        if !(size.is_finite() && size.x > 0.0 && size.y > 0.0) {
-            return Err(ClothError::InvalidSize {
-                width: size.x,
-                height: size.y,
-            });
-        }
+        let grid = Grid::checked(self.cols, self.rows, self.size)?;
         let (mass, rotation) = self.common.check()?;
-        let (Mass::PerArea(m) | Mass::Total(m)) = mass;
-
-        let grid = Grid { cols, rows, size };
-        let count = grid.len();
-        let total = match mass {
-            Mass::PerArea(rho) => rho * size.x * size.y,
-            Mass::Total(total) => total,
-        };
-        let masses: Vec<f32> = (0..count as u32)
-            .map(|p| {
-                if self.common.uniform_mass {
-                    return total / count as f32;
-                }
-                let w = |k: u32, n: u32| if k == 0 || k == n - 1 { 0.5 } else { 1.0 };
-                let share = w(p % cols, cols) * w(p / cols, rows);
-                total * share / ((cols - 1) * (rows - 1)) as f32
-            })
-            .collect();
-        let positions: Vec<Vec3> = (0..count as u32)
-            .map(|p| {
-                let uv = grid.rest_uv(p) - 0.5 * size;
-                self.common.position + rotation * Vec3::new(uv.x, 0.0, uv.y)
-            })
-            .collect();
-        let connections = ClothConnections::grid(cols, rows, &positions);
+        let m = mass.checked()?;
+        let masses = grid.masses(mass, self.common.uniform_mass);
+        let positions = placed(grid.rest_positions(), self.common.position, rotation);
+        let connections = ClothConnections::grid(grid.cols, grid.rows, &positions);
         let cloth = Cloth::from(grid.clone());
         self.common.bundle(
             m,
@@ -339,7 +288,6 @@ impl ClothBuilder {
 }
 
 fn resolve(cloth: &Grid, pin: &Pin) -> Result<Vec<u32>, ClothError> {
-    let (c, r) = (cloth.cols, cloth.rows);
     Ok(match pin {
         Pin::Index(p) => {
             if *p as usize >= cloth.len() {
@@ -350,18 +298,10 @@ fn resolve(cloth: &Grid, pin: &Pin) -> Result<Vec<u32>, ClothError> {
             }
             vec![*p]
         }
-        Pin::Corner(corner) => vec![match corner {
-            GridCorner::TopLeft => cloth.index(0, 0),
-            GridCorner::TopRight => cloth.index(c - 1, 0),
-            GridCorner::BottomLeft => cloth.index(0, r - 1),
-            GridCorner::BottomRight => cloth.index(c - 1, r - 1),
-        }],
-        Pin::Edge(GridEdge::Top) => (0..c).map(|i| cloth.index(i, 0)).collect(),
-        Pin::Edge(GridEdge::Bottom) => (0..c).map(|i| cloth.index(i, r - 1)).collect(),
-        Pin::Edge(GridEdge::Left) => (0..r).map(|j| cloth.index(0, j)).collect(),
-        Pin::Edge(GridEdge::Right) => (0..r).map(|j| cloth.index(c - 1, j)).collect(),
+        Pin::Corner(corner) => vec![cloth.corner(*corner)],
+        Pin::Edge(edge) => cloth.edge(*edge),
         Pin::Where(f) => (0..cloth.len() as u32)
-            .filter(|&p| f(p % c, p / c, cloth.rest_uv(p)))
+            .filter(|&p| f(p % cloth.cols, p / cloth.cols, cloth.rest_uv(p)))
             .collect(),
     })
 }

@@ -5,7 +5,8 @@ use bevy::math::{Quat, Vec3};
 use bevy::mesh::{Mesh, MeshVertexAttribute, VertexFormat};
 
 use crate::error::ClothError;
-use crate::plugin::spawn::builder::{ClothBuilder, ClothBundle, Common, Mass, common_methods};
+use crate::plugin::spawn::builder::{ClothBuilder, ClothBundle, Common, common_methods};
+use crate::sim::build::placed;
 use crate::plugin::spawn::material::ClothMaterial;
 use crate::plugin::spawn::mesh_cloth::{
     MeshLayout, float_attribute, marked_particles, painted_particles,
@@ -121,28 +122,11 @@ impl MeshClothBuilder {
     /// and an invalid material, mass or placement.
     pub fn build(self) -> Result<ClothBundle, ClothError> {
         let (mass, rotation) = self.common.check()?;
-        let (Mass::PerArea(m) | Mass::Total(m)) = mass;
+        let m = mass.checked()?;
         let shape = MeshLayout::from_mesh(&self.mesh)?;
         let topology = shape.topology();
-        let count = topology.len();
-        let mut masses = match mass {
-            Mass::PerArea(rho) => topology.lumped_masses(rho),
-            Mass::Total(total) => {
-                let mut masses = topology.lumped_masses(1.0);
-                let sum: f32 = masses.iter().sum();
-                masses.iter_mut().for_each(|m| *m *= total / sum);
-                masses
-            }
-        };
-        if self.common.uniform_mass {
-            let total: f32 = masses.iter().sum();
-            masses.fill(total / count as f32);
-        }
-        let positions: Vec<Vec3> = topology
-            .positions
-            .iter()
-            .map(|&p| self.common.position + rotation * p)
-            .collect();
+        let masses = topology.masses(mass, self.common.uniform_mass);
+        let positions = placed(topology.positions.iter().copied(), self.common.position, rotation);
         let connections = ClothConnections(topology.connections());
         let cloth = Cloth::from(shape.clone());
         self.common.bundle(

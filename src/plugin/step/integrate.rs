@@ -34,7 +34,7 @@ use bevy::time::Fixed;
 use crate::plugin::collision::{
     ClothColliderScene, ClothCollision, ClothCollisionStats, ClothContactImpulses,
     ClothContactLayers, ClothContacts, ClothObstacles, ClothSelfCollision, ClothToClothScratch,
-    ContactImpulse, SceneContacts, SelfCollisionScratch, bounds,
+    ContactImpulse, SelfCollisionScratch,
 };
 use crate::plugin::lod::ClothDetail;
 use crate::plugin::spawn::material::ClothMaterial;
@@ -43,6 +43,7 @@ use crate::plugin::step::components::{
     ClothStats, check_indices,
 };
 use crate::plugin::step::pool::compute_pool;
+use crate::sim::collision::scene::{NearCloths, SceneContacts};
 use crate::plugin::step::sleep::{Change, ClothSleep};
 use crate::plugin::step::writeback::ClothScratch;
 use crate::plugin::tearing::tear::ClothTearing;
@@ -146,11 +147,11 @@ struct Totals([AtomicU64; 6]);
 
 impl Totals {
     /// Adds what one cloth's contact hook counted.
-    fn add(&self, hook: &SceneContacts) {
+    fn add(&self, hook: &SceneContacts<Cloth>) {
         let totals = &self.0;
         if let Some(c) = &hook.cloths {
             totals[4].fetch_add(1, Ordering::Relaxed);
-            totals[5].fetch_add(c.contacts as u64, Ordering::Relaxed);
+            totals[5].fetch_add(c.contacts() as u64, Ordering::Relaxed);
         }
         let (against, itself) = hook.counts;
         for (total, n) in totals.iter().zip([
@@ -279,8 +280,8 @@ pub(crate) fn step_cloths(
         .unwrap_or_else(PoisonError::into_inner);
     if let Some(mut impulses) = impulses {
         for (c, impulse) in feedback {
-            if let Some(collider) = scene.colliders.get(c) {
-                *impulses.map.entry(collider.entity).or_default() += impulse;
+            if let Some(entity) = scene.colliders.get(c).and_then(|c| c.key.entity()) {
+                *impulses.map.entry(entity).or_default() += impulse;
             }
         }
     }
@@ -454,17 +455,14 @@ fn near_colliders(item: &mut StepQueryItem, scene: &ClothColliderScene, reach: &
         .collision
         .as_ref()
         .map_or(ClothCollision::default().thickness, |c| c.thickness);
-    let near = &mut item.scratch.contacts.near;
-    near.clear();
+    let contacts = &mut item.scratch.contacts;
     if !scene.colliders.is_empty() && thickness.is_finite() && thickness >= 0.0 {
         let p = &item.particles;
-        let (lo, hi) = bounds(&p.positions, thickness + reach.get(&p.velocities));
+        let pad = thickness + reach.get(&p.velocities);
         let layers = item.layers.as_deref().copied().unwrap_or_default();
-        near.extend(
-            scene
-                .overlapping(lo, hi)
-                .filter(|&c| scene.colliders[c].layers.interacts(layers)),
-        );
+        contacts.select_near(scene, &p.positions, pad, layers);
+    } else {
+        contacts.clear_near();
     }
     thickness
 }
@@ -499,7 +497,7 @@ fn integrate(
             (&made.0, t.slack)
         });
     let helper = settings.implicit.helper_thread;
-    let cloths = item
+    let mut cloths = item
         .to_cloth
         .as_deref_mut()
         .filter(|c| !c.near.1.is_empty())
@@ -510,21 +508,16 @@ fn integrate(
             gravity: settings.gravity,
         });
     let contacts = &mut scratch.contacts;
-    let any = !contacts.near.is_empty() || self_collision.is_some() || cloths.is_some();
-    let mut hook = (any || tethers.is_some()).then(|| SceneContacts {
-        scene: shared.scene,
-        near: &contacts.near,
-        thickness,
-        helper,
-        in_solve: item.collision.as_ref().is_none_or(|c| c.in_solve),
-        self_collision,
-        tethers,
-        links: [&connections.structural, &connections.shear],
-        masked: &mut contacts.masked,
-        edge_points: &mut contacts.edge_points,
-        feedback: &mut contacts.feedback,
-        counts: Default::default(),
-        cloths,
+    let any = !contacts.near().is_empty() || self_collision.is_some() || cloths.is_some();
+    let in_solve = item.collision.as_ref().is_none_or(|c| c.in_solve);
+    let mut hook = (any || tethers.is_some()).then(|| {
+        let mut hook = SceneContacts::new(shared.scene, connections, thickness, contacts)
+            .with_helper_thread(helper)
+            .with_contacts_in_solve(in_solve)
+            .with_self_collision(self_collision);
+        hook.tethers = tethers;
+        hook.cloths = cloths.as_mut().map(|c| c as &mut dyn NearCloths);
+        hook
     });
     let external = mean_external(
         &mut item.particles,

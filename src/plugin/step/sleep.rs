@@ -5,7 +5,12 @@ use bevy::prelude::{
     Component, Entity, EntityCommand, EntityWorldMut, Reflect, ReflectComponent, ReflectDefault,
 };
 
+use bevy::ecs::change_detection::Tick;
+use bevy::math::Vec3;
+
 use crate::plugin::step::events::{ClothAtRest, ClothWoke};
+use crate::sim::collision::scene::{ClothContactLayers, ColliderScene, ColliderWatch};
+use crate::sim::sleep::SleepSettings;
 
 /// Whether a cloth sleeps: on every cloth, set by the plugin. Read it to
 /// skip work on sleeping cloths; wake one with [`WakeCloth`] or
@@ -116,5 +121,48 @@ impl Change {
             Change::Rested => commands.trigger(ClothAtRest { entity }),
             Change::Woke => commands.trigger(ClothWoke { entity }),
         }
+    }
+}
+
+/// What a sleeping cloth remembers of the moment it fell asleep, to see
+/// what has changed since (not reflected).
+#[derive(Clone, Debug, Default)]
+pub(crate) struct SleepWatch {
+    /// The particles' change tick when it fell asleep.
+    pub(crate) tick: Option<Tick>,
+    /// The colliders around it then.
+    colliders: ColliderWatch,
+    /// The thresholds of its last step.
+    pub(crate) settings: SleepSettings,
+    /// An event to trigger at the end of the step.
+    pub(crate) event: Option<Change>,
+}
+
+impl SleepWatch {
+    /// Remembers the colliders of `scene` that meet `layers` around a
+    /// cloth falling asleep within `bounds` (its box grown by thickness and
+    /// margin, m), and its particles' change `tick`. `false` if it must
+    /// stay awake: a body that feels the cloth is there.
+    pub(crate) fn fall_asleep(
+        &mut self,
+        scene: &ColliderScene,
+        bounds: (Vec3, Vec3),
+        layers: ClothContactLayers,
+        tick: Tick,
+    ) -> bool {
+        let asleep = self.colliders.fall_asleep(scene, bounds, layers);
+        self.tick = asleep.then_some(tick);
+        asleep
+    }
+
+    /// Whether the colliders around the sleeping cloth have changed (one
+    /// appeared, left, or moved by more than `tolerance` m or rad).
+    pub(crate) fn scene_changed(
+        &mut self,
+        scene: &ColliderScene,
+        layers: ClothContactLayers,
+        tolerance: f32,
+    ) -> bool {
+        self.colliders.scene_changed(scene, layers, tolerance)
     }
 }

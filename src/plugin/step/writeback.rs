@@ -14,16 +14,15 @@ use bevy::prelude::{
     Commands, Component, DetectChanges, Entity, Local, MessageWriter, Query, Ref, Res,
 };
 
-use crate::plugin::collision::{
-    ClothColliderScene, ClothCollision, ClothContactLayers, Feedback, SleepWatch, bounds,
-};
+use crate::plugin::collision::{ClothColliderScene, ClothCollision, ClothContactLayers, bounds};
 use crate::plugin::interaction::grab::ClothGrabs;
 use crate::plugin::lod::ClothDetail;
 use crate::plugin::step::components::{
     ClothConnections, ClothForces, ClothParticles, ClothStats, check_indices,
 };
 use crate::plugin::step::events::ClothDiverged;
-use crate::plugin::step::sleep::{Change, ClothSleep};
+use crate::plugin::step::sleep::{Change, ClothSleep, SleepWatch};
+use crate::sim::collision::scene::SceneContactScratch;
 use crate::sim::lod::Detail;
 use crate::sim::sleep::{RestChange, RestTracker};
 
@@ -90,26 +89,13 @@ pub(crate) struct ClothScratch {
     /// What the step measured that its writeback reuses.
     pub(crate) measured: Measured,
     /// The contact stage's.
-    pub(crate) contacts: ContactScratch,
+    pub(crate) contacts: SceneContactScratch,
     /// The divergence guard's.
     pub(crate) guard: GuardScratch,
     /// Rest and sleep.
     pub(crate) rest: RestScratch,
     /// The mean of the forces over a combined step (level of detail), N.
     pub(crate) mean_forces: Vec<Vec3>,
-}
-
-/// The contact stage's scratch.
-#[derive(Clone, Debug, Default)]
-pub(crate) struct ContactScratch {
-    /// Indices of the scene colliders near this cloth in the current step.
-    pub(crate) near: Vec<usize>,
-    /// The contact pass's masked inverse masses.
-    pub(crate) masked: Vec<f32>,
-    /// The edge contacts' scratch.
-    pub(crate) edge_points: Vec<(Vec3, f32, Vec3, f32)>,
-    /// The impulses this step gave colliders with feedback.
-    pub(crate) feedback: Feedback,
 }
 
 /// The divergence guard's state and what it has to report.

@@ -1,19 +1,22 @@
-//! A cloth's contacts with the [`ClothColliderScene`] during its step: the
-//! integrators' [`ContactHook`], and the impulses it measures for colliders
-//! with [`feedback`](SceneCollider::feedback).
+//! A cloth's contacts with a [`ColliderScene`] during its step: the
+//! integrators' [`ContactHook`] the plugin runs, and any code stepping a
+//! cloth with [`step_guarded`](crate::sim::guard::step_guarded) can run
+//! too; it measures the impulses on colliders with
+//! [`feedback`](SceneCollider::feedback) on the way.
 
-use bevy::math::{Isometry3d, Quat, Vec3};
+use bevy::math::Vec3;
 
-use crate::plugin::collision::scene::{ClothColliderScene, ContactImpulse, SceneCollider};
-use crate::plugin::step::components::Cloth;
+use super::colliders::{ClothContactLayers, ColliderScene, ContactImpulse, SceneCollider};
+use super::feedback::{Carried, Feedback};
 use crate::sim::collision::ccd::prevent_crossings;
 use crate::sim::collision::contact::{MovingCollider, collide_particles};
 use crate::sim::collision::self_collision::keep_apart;
 #[cfg(test)]
 use crate::sim::collision::self_collision::self_collide;
-use crate::sim::collision::{Counts, SelfCollisionBuffers};
+use crate::sim::collision::{Counts, SelfCollisionBuffers, bounds};
 use crate::sim::collision::{edges, predict};
-use crate::sim::connections::Link;
+use crate::sim::connections::{Connections, Link};
+use crate::sim::grid::{Faces, Grid};
 use crate::sim::integrate::implicit::{ContactBuffers, Hold, SolveBody, SolveContact};
 use crate::sim::step::{ContactHook, Substep};
 use crate::sim::team::both;
@@ -67,10 +70,10 @@ fn collide_one(
     reason = "a plain function over the cloth's slices"
 )]
 pub(crate) fn resolve_substep(
-    scene: &ClothColliderScene,
+    scene: &ColliderScene,
     near: &[usize],
     (thickness, helper): (f32, bool),
-    self_collision: Option<(&Cloth, f32, &mut SelfCollisionBuffers)>,
+    self_collision: Option<(&impl Faces, f32, &mut SelfCollisionBuffers)>,
     sub: Substep,
     start: &[Vec3],
     x: &mut [Vec3],
@@ -97,137 +100,142 @@ pub(crate) fn resolve_substep(
     (against, itself)
 }
 
-/// A free body's velocity change from a substep the implicit solve moved
-/// it in, kept for the rest of the step.
-#[derive(Clone, Copy, Debug)]
-pub(crate) struct Carried {
-    /// Scene index of the collider.
-    collider: usize,
-    /// Linear (m/s) and angular (rad/s) velocity change.
-    linear: Vec3,
-    angular: Vec3,
-    /// The shift (m) out of the cloth's overlap made then.
-    shift: Vec3,
-    /// From when (a fraction of the step) it moves so.
-    from: f32,
-}
-
-/// The impulses a cloth's step gave the colliders with feedback, by scene
-/// index (a handful: a linear list), and how the implicit solve moved their
-/// bodies within the step.
+/// What a cloth's contacts keep from step to step: the colliders near it,
+/// the impulses its last step gave colliders with feedback, and scratch.
 #[derive(Clone, Debug, Default)]
-pub(crate) struct Feedback {
-    /// Scene index and impulse on that collider.
-    pub(crate) impulses: Vec<(usize, ContactImpulse)>,
-    /// Scratch: the velocities before a collider's response, m/s.
-    before: Vec<Vec3>,
-    /// The velocity changes the solve gave bodies in this step's substeps
-    /// so far: a body the first substep stopped is not taken as still
-    /// falling in the next.
-    carried: Vec<Carried>,
-    /// The colliders of the last solve's bodies: scene index, and the
-    /// body's index in the solve's bodies.
-    sources: Vec<(usize, u32)>,
-    /// The substep of the last solve.
-    at: Substep,
+pub struct SceneContactScratch {
+    /// Indices into the scene's colliders of those near the cloth.
+    pub(crate) near: Vec<usize>,
+    /// The inverse masses with the held particles' zeroed, 1/kg.
+    pub(crate) masked: Vec<f32>,
+    /// The edge contacts' scratch: each particle's local position (m),
+    /// distance (m), normal and surface speed (m/s).
+    pub(crate) edge_points: Vec<(Vec3, f32, Vec3, f32)>,
+    /// The impulses the step gave colliders with feedback.
+    pub(crate) feedback: Feedback,
 }
 
-impl Feedback {
-    /// `collider` (scene index `c`) over `sub`, moved as the solve moved
-    /// its body in the substeps before: by each velocity change since the
-    /// substep it came from, turning about the body's centre of mass.
-    fn moving<'a>(
-        &self,
-        collider: &'a SceneCollider,
-        c: usize,
+impl SceneContactScratch {
+    /// Lists the colliders of `scene` the cloth at `positions` (m) may meet
+    /// in its next step: those whose swept box overlaps the cloth's box
+    /// grown by `pad` m (its contact thickness and how far it may move) and
+    /// whose layers meet the cloth's `layers`.
+    pub fn select_near(
+        &mut self,
+        scene: &ColliderScene,
+        positions: &[Vec3],
+        pad: f32,
+        layers: ClothContactLayers,
+    ) {
+        let (min, max) = bounds(positions, pad);
+        self.near.clear();
+        self.near.extend(
+            scene
+                .overlapping(min, max)
+                .filter(|&c| scene.colliders[c].layers.interacts(layers)),
+        );
+    }
+
+    /// Forgets the colliders listed near the cloth.
+    pub fn clear_near(&mut self) {
+        self.near.clear();
+    }
+
+    /// The colliders listed near the cloth, as indices into the scene's
+    /// colliders.
+    pub fn near(&self) -> &[usize] {
+        &self.near
+    }
+
+    /// The impulses the last step gave the colliders with
+    /// [`feedback`](SceneCollider::feedback): scene index and impulse.
+    pub fn impulses(&self) -> &[(usize, ContactImpulse)] {
+        &self.feedback.impulses
+    }
+}
+
+/// A cloth's contacts with other cloths during its step, which
+/// [`SceneContacts`] resolves after the colliders' (the plugin's
+/// cloth–cloth collision).
+pub(crate) trait NearCloths {
+    /// Adds the contacts that hold the cloth (positions `x` m, velocities
+    /// `v` m/s, inverse masses `w` 1/kg) off its neighbours over `sub`.
+    fn predict(
+        &mut self,
         sub: Substep,
-    ) -> MovingCollider<'a> {
-        let mut moving = collider.between(sub.from, sub.to);
-        if !self.carried.iter().any(|k| k.collider == c) {
-            return moving;
-        }
-        let span = sub.to - sub.from;
-        if span <= 0.0 {
-            return moving;
-        }
-        let step = sub.dt / span;
-        let origin = Vec3::from(collider.start.translation);
-        let shift = |pose: &mut Isometry3d, t: f32| {
-            let (mut linear, mut angular) = (Vec3::ZERO, Vec3::ZERO);
-            for k in self.carried.iter().filter(|k| k.collider == c) {
-                let time = (t - k.from).max(0.0) * step;
-                linear += k.linear * time;
-                angular += k.angular * time;
-                if t >= k.from {
-                    linear += k.shift;
-                }
-            }
-            let turn = Quat::from_scaled_axis(angular);
-            let at = Vec3::from(pose.translation);
-            let centre = collider.centre + (at - origin);
-            pose.rotation = turn * pose.rotation;
-            pose.translation = (centre + turn * (at - centre) + linear).into();
-        };
-        shift(&mut moving.start, sub.from);
-        shift(&mut moving.end, sub.to);
-        moving
-    }
+        now: (&[Vec3], &[Vec3], &[f32]),
+        out: &mut Vec<SolveContact>,
+    );
 
-    fn entry(&mut self, c: usize) -> &mut ContactImpulse {
-        match self.impulses.iter().position(|(i, _)| *i == c) {
-            Some(k) => &mut self.impulses[k].1,
-            None => {
-                self.impulses.push((c, ContactImpulse::default()));
-                &mut self.impulses.last_mut().expect("just pushed").1
-            }
-        }
-    }
+    /// After a substep: puts back what passed through a neighbour
+    /// (`start` → `x`, m; `v`, m/s; `w`, 1/kg; `held` by the solve, or
+    /// empty).
+    fn resolve(
+        &mut self,
+        sub: Substep,
+        motion: (&[Vec3], &mut [Vec3], &mut [Vec3]),
+        w: &[f32],
+        held: &[Hold],
+    );
 
-    /// Before a response that may change `v`: remembers it.
-    fn mark(&mut self, v: &[Vec3]) {
-        self.before.clear();
-        self.before.extend_from_slice(v);
-    }
-
-    /// After it: the momentum it gave the particles (masses from the
-    /// inverse masses `w`, 1/kg), at their positions `x` (m), goes to
-    /// collider `c` with the opposite sign.
-    fn measure(&mut self, c: usize, x: &[Vec3], v: &[Vec3], w: &[f32]) {
-        let mut total = ContactImpulse::default();
-        for (((&before, &after), &p), &w) in self.before.iter().zip(v).zip(x).zip(w) {
-            if after != before && w > 0.0 {
-                total.add_at(-(after - before) / w, p, after);
-            }
-        }
-        if total != ContactImpulse::default() {
-            *self.entry(c) += total;
-        }
-    }
+    /// Contacts listed and particles put back so far.
+    fn contacts(&self) -> u32;
 }
 
-/// The contacts of one cloth's step with the scene and with itself, as the
-/// integrators' [`ContactHook`]: implicit steps hold the contacts
-/// [`predict`](predict::predict_contacts) lists inside their solve;
-/// [`resolve_substep`] resolves the rest after every substep, leaving the
-/// particles the solve held alone. The impulses on colliders with feedback
-/// are measured on the way.
-pub(crate) struct SceneContacts<'a> {
+/// The contacts of one cloth's step with the colliders of a
+/// [`ColliderScene`] and with itself, as the integrators' [`ContactHook`]:
+/// implicit steps hold the contacts
+/// [`predict`](predict::predict_contacts) lists inside their solve; after
+/// every substep the rest are resolved, leaving the particles the solve
+/// held alone. The impulses on colliders with feedback are measured into
+/// the [`SceneContactScratch`] on the way.
+///
+/// ```
+/// use bevy::math::{Isometry3d, Vec3};
+/// use bevy_cloth::prelude::*;
+/// use bevy_cloth::sim::collision::Shape;
+/// use bevy_cloth::sim::collision::scene::*;
+/// use bevy_cloth::sim::guard::{GuardState, StepInput, step_guarded};
+/// use bevy_cloth::sim::integrate::StepBuffers;
+///
+/// // A 1 m sheet laid flat 30 cm above a floor (the plane y = 0 of its pose).
+/// let mut cloth = ClothBuilder::new(9, 9).build()?;
+/// let floor_y = cloth.particles.positions[0].y - 0.3;
+/// let floor = Isometry3d::from_translation(Vec3::new(0.0, floor_y, 0.0));
+/// let mut scene = ColliderScene::default();
+/// scene.push(SceneCollider::new(ColliderKey(1), ColliderShape::Analytic(Shape::Plane), floor, floor))?;
+/// let settings = SimSettings::default();
+/// let (mut buffers, mut guard) = (StepBuffers::default(), GuardState::default());
+/// let mut scratch = SceneContactScratch::default();
+/// for _ in 0..60 {
+///     let (positions, layers) = (&cloth.particles.positions, ClothContactLayers::ALL);
+///     scratch.select_near(&scene, positions, 0.2, layers);
+///     let mut contacts = SceneContacts::new(&scene, &cloth.connections, 0.01, &mut scratch);
+///     step_guarded(
+///         StepInput::new(&mut cloth.particles, &cloth.connections, &settings, &mut buffers, &mut guard, 1.0 / 60.0)
+///             .with_contacts(Some(&mut contacts)),
+///     );
+/// }
+/// // It lies on the floor, no particle below it.
+/// assert!(cloth.particles.positions.iter().all(|p| (p.y - floor_y).abs() < 0.02));
+/// # Ok::<(), bevy_cloth::error::ClothError>(())
+/// ```
+pub struct SceneContacts<'a, F: Faces = Grid> {
     /// The scene.
-    pub(crate) scene: &'a ClothColliderScene,
+    pub(crate) scene: &'a ColliderScene,
     /// The scene's colliders near the cloth.
     pub(crate) near: &'a [usize],
     /// Contact thickness, m.
     pub(crate) thickness: f32,
     /// Whether a large cloth may share the work with the helper thread.
     pub(crate) helper: bool,
-    /// The cloth, its self-collision thickness (m) and buffers, when it
-    /// collides with itself.
-    pub(crate) self_collision: Option<(&'a Cloth, f32, &'a mut SelfCollisionBuffers)>,
-    /// Whether the implicit solve holds contacts
-    /// ([`ClothCollision::in_solve`](super::ClothCollision::in_solve)).
+    /// The cloth's triangles, its self-collision thickness (m) and buffers,
+    /// when it collides with itself.
+    pub(crate) self_collision: Option<(&'a F, f32, &'a mut SelfCollisionBuffers)>,
+    /// Whether the implicit solve holds contacts (otherwise they are all
+    /// resolved after each substep).
     pub(crate) in_solve: bool,
-    /// The cloth's tethers and their slack, applied before the contacts
-    /// ([`ClothTethers`](crate::plugin::worn::tether::ClothTethers)).
+    /// The cloth's tethers and their slack, applied before the contacts.
     pub(crate) tethers: Option<(&'a Tethers, f32)>,
     /// The cloth's Type 1 links (structural and shear), held off the
     /// colliders' edges and corners in the solve
@@ -243,10 +251,92 @@ pub(crate) struct SceneContacts<'a> {
     /// Tests and contacts so far: against colliders, with itself.
     pub(crate) counts: (Counts, Counts),
     /// Its contacts with other cloths, when it has some near.
-    pub(crate) cloths: Option<super::ClothContacts<'a>>,
+    pub(crate) cloths: Option<&'a mut dyn NearCloths>,
 }
 
-impl ContactHook for SceneContacts<'_> {
+impl<'a> SceneContacts<'a> {
+    /// The contacts of a cloth with `connections` against the colliders of
+    /// `scene` that `scratch` lists near it
+    /// ([`select_near`](SceneContactScratch::select_near)), at a contact
+    /// thickness of `thickness` m; held in the implicit solve, on this
+    /// thread alone.
+    pub fn new(
+        scene: &'a ColliderScene,
+        connections: &'a Connections,
+        thickness: f32,
+        scratch: &'a mut SceneContactScratch,
+    ) -> Self {
+        let SceneContactScratch {
+            near,
+            masked,
+            edge_points,
+            feedback,
+        } = scratch;
+        Self {
+            scene,
+            near,
+            thickness,
+            helper: false,
+            self_collision: None,
+            in_solve: true,
+            tethers: None,
+            links: [&connections.structural, &connections.shear],
+            masked,
+            edge_points,
+            feedback,
+            counts: Default::default(),
+            cloths: None,
+        }
+    }
+
+}
+
+impl<'a, F: Faces> SceneContacts<'a, F> {
+    /// With the cloth colliding with itself: its triangles, its
+    /// self-collision thickness (m) and buffers.
+    pub(crate) fn with_self_collision<G: Faces>(
+        self,
+        self_collision: Option<(&'a G, f32, &'a mut SelfCollisionBuffers)>,
+    ) -> SceneContacts<'a, G> {
+        SceneContacts {
+            scene: self.scene,
+            near: self.near,
+            thickness: self.thickness,
+            helper: self.helper,
+            self_collision,
+            in_solve: self.in_solve,
+            tethers: self.tethers,
+            links: self.links,
+            masked: self.masked,
+            edge_points: self.edge_points,
+            feedback: self.feedback,
+            counts: self.counts,
+            cloths: self.cloths,
+        }
+    }
+
+    /// With a cloth of many particles sharing the work with the implicit
+    /// solver's helper thread (the same result either way).
+    pub fn with_helper_thread(mut self, helper: bool) -> Self {
+        self.helper = helper;
+        self
+    }
+
+    /// With the contacts held inside the implicit solve (`true`, the
+    /// default) or all resolved after each substep.
+    pub fn with_contacts_in_solve(mut self, in_solve: bool) -> Self {
+        self.in_solve = in_solve;
+        self
+    }
+
+    /// The tests and contacts so far: against the colliders, and of the
+    /// cloth with itself.
+    pub fn counts(&self) -> (Counts, Counts) {
+        self.counts
+    }
+}
+
+impl<F: Faces> ContactHook for SceneContacts<'_, F> {
     fn resolve(
         &mut self,
         sub: Substep,
@@ -402,7 +492,7 @@ impl ContactHook for SceneContacts<'_> {
             }
             let same = |&(other, _): &(usize, u32)| {
                 let o = &self.scene.colliders[other];
-                o.entity == collider.entity
+                o.key == collider.key
                     || (o.mass == collider.mass
                         && o.centre == collider.centre
                         && o.inverse_inertia == collider.inverse_inertia)
@@ -482,17 +572,20 @@ impl ContactHook for SceneContacts<'_> {
 mod tests {
     use bevy::prelude::*;
 
+    use bevy::math::Isometry3d;
+
     use super::*;
-    use crate::plugin::collision::{ClothColliderScene, ColliderShape, SceneCollider, Shape};
+    use crate::sim::collision::Shape;
+    use crate::sim::collision::scene::{ColliderKey, ColliderShape};
 
     /// A 64×64 cloth's contacts with a sphere, resolved in one pass and in two
     /// halves on two threads: the same positions, velocities and counts.
     #[test]
     fn a_large_cloths_contacts_are_the_same_in_two_halves() {
         let pose = Isometry3d::from_translation(Vec3::new(0.0, 1.0, 0.0));
-        let scene = ClothColliderScene {
+        let scene = ColliderScene {
             colliders: vec![SceneCollider::new(
-                Entity::PLACEHOLDER,
+                ColliderKey(0),
                 ColliderShape::Analytic(Shape::Sphere { radius: 0.3 }),
                 pose,
                 pose,
@@ -524,7 +617,7 @@ mod tests {
                 &scene,
                 &[0],
                 (0.005, helper),
-                None,
+                None::<(&Grid, f32, &mut SelfCollisionBuffers)>,
                 sub,
                 &start,
                 &mut x,

@@ -1,41 +1,31 @@
-//! What a sleeping cloth watches of the collider scene
-//! ([`sleep`](crate::plugin::step::sleep) module docs).
+//! What a sleeping cloth watches of the colliders around it, to wake when
+//! one appears, leaves or moves ([`sleep`](crate::sim::sleep) module docs).
 
-use bevy::ecs::change_detection::Tick;
 use bevy::math::{Isometry3d, Vec3};
-use bevy::prelude::Entity;
 
-use super::{ClothColliderScene, ClothContactLayers};
-use crate::plugin::step::sleep::Change;
-use crate::sim::sleep::SleepSettings;
+use super::colliders::{ClothContactLayers, ColliderKey, ColliderScene};
 
-/// What a sleeping cloth remembers of the moment it fell asleep, to see
-/// what has changed since (not reflected).
+/// The colliders around a cloth at the moment it fell asleep, to see what
+/// has changed since.
 #[derive(Clone, Debug, Default)]
-pub(crate) struct SleepWatch {
-    /// The particles' change tick when it fell asleep.
-    pub(crate) tick: Option<Tick>,
+pub(crate) struct ColliderWatch {
     /// Its box grown by thickness and margin, m.
-    pub(crate) bounds: (Vec3, Vec3),
-    /// The colliders in that box then, sorted by entity, with their poses.
-    pub(crate) near: Vec<(Entity, Isometry3d)>,
+    bounds: (Vec3, Vec3),
+    /// The colliders in that box then, sorted by key, with their poses.
+    near: Vec<(ColliderKey, Isometry3d)>,
     /// Scratch for the same list now.
-    now: Vec<(Entity, Isometry3d)>,
-    /// The thresholds of its last step.
-    pub(crate) settings: SleepSettings,
-    /// An event to trigger at the end of the step.
-    pub(crate) event: Option<Change>,
+    now: Vec<(ColliderKey, Isometry3d)>,
 }
 
-impl SleepWatch {
-    /// The colliders of `scene` (sorted by entity, with their end poses)
+impl ColliderWatch {
+    /// The colliders of `scene` (sorted by key, with their end poses)
     /// within `bounds` that meet `layers`, into `out`; whether one of them
     /// feels the cloth (a body that must not lose its support), and whether
     /// one moves over this step by more than `tolerance` ([`moved`]).
     fn gather(
-        scene: &ClothColliderScene,
+        scene: &ColliderScene,
         (bounds, layers, tolerance): ((Vec3, Vec3), ClothContactLayers, f32),
-        out: &mut Vec<(Entity, Isometry3d)>,
+        out: &mut Vec<(ColliderKey, Isometry3d)>,
     ) -> (bool, bool) {
         out.clear();
         let (mut feedback, mut moving) = (false, false);
@@ -44,10 +34,10 @@ impl SleepWatch {
             if collider.layers.interacts(layers) {
                 feedback |= collider.feedback;
                 moving |= moved(collider.start, collider.end, tolerance);
-                out.push((collider.entity, collider.end));
+                out.push((collider.key, collider.end));
             }
         }
-        out.sort_by_key(|(e, _)| e.to_bits());
+        out.sort_by_key(|(key, _)| key.0);
         (feedback, moving)
     }
 
@@ -56,16 +46,14 @@ impl SleepWatch {
     /// awake: a body that feels the cloth is there.
     pub(crate) fn fall_asleep(
         &mut self,
-        scene: &ClothColliderScene,
+        scene: &ColliderScene,
         bounds: (Vec3, Vec3),
         layers: ClothContactLayers,
-        tick: Tick,
     ) -> bool {
         self.bounds = bounds;
         let mut near = std::mem::take(&mut self.near);
         let (feedback, _) = Self::gather(scene, (bounds, layers, f32::INFINITY), &mut near);
         self.near = near;
-        self.tick = (!feedback).then_some(tick);
         !feedback
     }
 
@@ -74,7 +62,7 @@ impl SleepWatch {
     /// since it fell asleep) as [`moved`] has it.
     pub(crate) fn scene_changed(
         &mut self,
-        scene: &ClothColliderScene,
+        scene: &ColliderScene,
         layers: ClothContactLayers,
         tolerance: f32,
     ) -> bool {
@@ -106,21 +94,18 @@ fn moved(a: Isometry3d, b: Isometry3d, tolerance: f32) -> bool {
 
 #[cfg(test)]
 mod tests {
-    use super::*;
-    use crate::plugin::collision::{ColliderShape, SceneCollider, Shape};
     use bevy::math::Quat;
 
-    fn scene(poses: &[(u32, Isometry3d, Isometry3d)]) -> ClothColliderScene {
-        let mut scene = ClothColliderScene::default();
+    use super::*;
+    use crate::sim::collision::Shape;
+    use crate::sim::collision::scene::{ColliderShape, SceneCollider};
+
+    fn scene(poses: &[(u64, Isometry3d, Isometry3d)]) -> ColliderScene {
+        let mut scene = ColliderScene::default();
         for &(e, start, end) in poses {
             let shape = ColliderShape::Analytic(Shape::Sphere { radius: 0.1 });
             scene
-                .push(SceneCollider::new(
-                    Entity::from_raw_u32(e).unwrap(),
-                    shape,
-                    start,
-                    end,
-                ))
+                .push(SceneCollider::new(ColliderKey(e), shape, start, end))
                 .unwrap();
         }
         scene
@@ -130,10 +115,9 @@ mod tests {
     fn the_scene_around_a_sleeping_cloth_is_watched() {
         let still = Isometry3d::from_translation(Vec3::ZERO);
         let bounds = (Vec3::splat(-1.0), Vec3::splat(1.0));
-        let mut watch = SleepWatch::default();
-        let tick = Tick::new(1);
+        let mut watch = ColliderWatch::default();
         let all = ClothContactLayers::ALL;
-        assert!(watch.fall_asleep(&scene(&[(1, still, still)]), bounds, all, tick));
+        assert!(watch.fall_asleep(&scene(&[(1, still, still)]), bounds, all));
         assert!(!watch.scene_changed(&scene(&[(1, still, still)]), all, 1e-4));
         // Gone, doubled, replaced, moving, moved since, turned.
         assert!(watch.scene_changed(&scene(&[]), all, 1e-4));
@@ -156,16 +140,13 @@ mod tests {
     fn a_body_that_feels_the_cloth_keeps_it_awake() {
         let still = Isometry3d::from_translation(Vec3::ZERO);
         let shape = ColliderShape::Analytic(Shape::Sphere { radius: 0.1 });
-        let mut scene = ClothColliderScene::default();
+        let mut scene = ColliderScene::default();
         scene
-            .push(
-                SceneCollider::new(Entity::from_raw_u32(1).unwrap(), shape, still, still)
-                    .with_feedback(true),
-            )
+            .push(SceneCollider::new(ColliderKey(1), shape, still, still).with_feedback(true))
             .unwrap();
         let bounds = (Vec3::splat(-1.0), Vec3::splat(1.0));
-        let mut watch = SleepWatch::default();
-        assert!(!watch.fall_asleep(&scene, bounds, ClothContactLayers::ALL, Tick::new(1)));
+        let mut watch = ColliderWatch::default();
+        assert!(!watch.fall_asleep(&scene, bounds, ClothContactLayers::ALL));
     }
 
     #[test]

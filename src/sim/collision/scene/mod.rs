@@ -1,0 +1,19 @@
+//! A cloth's contacts with the colliders of a scene: the colliders of a
+//! fixed step ([`ColliderScene`], filled by any source) and the contact
+//! hook that resolves a cloth's step against them ([`SceneContacts`]),
+//! the same code the plugin runs for every cloth.
+//!
+//! It may import the rest of [`sim`](crate::sim) and [`error`](crate::error).
+
+mod colliders;
+mod feedback;
+mod hook;
+mod watch;
+
+pub use colliders::{
+    ClothContactLayers, ColliderKey, ColliderScene, ColliderShape, ContactImpulse, MeshShape,
+    SceneCollider,
+};
+pub(crate) use hook::NearCloths;
+pub use hook::{SceneContactScratch, SceneContacts};
+pub(crate) use watch::ColliderWatch;
