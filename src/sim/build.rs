@@ -159,7 +159,10 @@ mod tests {
         let total: f32 = masses.iter().sum();
         assert!((total - 0.2 * 3.0).abs() < 1e-6, "{total}");
         let inner = masses[grid.index(1, 1) as usize];
-        assert_eq!(masses[grid.corner(GridCorner::TopLeft) as usize], inner / 4.0);
+        assert_eq!(
+            masses[grid.corner(GridCorner::TopLeft) as usize],
+            inner / 4.0
+        );
         assert_eq!(masses[grid.index(2, 0) as usize], inner / 2.0);
         let uniform = grid.masses(Mass::Total(2.0), true);
         assert!(uniform.iter().all(|&m| m == 0.1));
@@ -217,6 +220,10 @@ mod tests {
         let at = placed(grid.rest_positions(), Vec3::Y, turn);
         assert!(at[4].abs_diff_eq(Vec3::Y, 1e-6), "{}", at[4]);
         // Row 0 (z = -0.5) turned about X goes up to y = 1.5.
-        assert!(at[0].abs_diff_eq(Vec3::new(-1.0, 1.5, 0.0), 1e-6), "{}", at[0]);
+        assert!(
+            at[0].abs_diff_eq(Vec3::new(-1.0, 1.5, 0.0), 1e-6),
+            "{}",
+            at[0]
+        );
     }
 }

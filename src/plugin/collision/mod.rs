@@ -63,8 +63,8 @@ pub use crate::sim::collision::scene::{
     ClothContactLayers, ColliderKey, ColliderShape, ContactImpulse, MeshShape, SceneCollider,
 };
 pub(crate) use cloths::ClothToClothScratch;
-pub(crate) use cloths::{ClothContacts, obstacles_in_use, take_obstacles};
 pub use cloths::{ClothObstacles, ClothToClothCollision};
+pub(crate) use cloths::{obstacles_in_use, take_obstacles};
 pub use scene::{
     ClothColliderScene, ClothColliderSources, ClothContactImpulses, ClothReportImpulses,
 };

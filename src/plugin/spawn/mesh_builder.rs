@@ -6,12 +6,12 @@ use bevy::mesh::{Mesh, MeshVertexAttribute, VertexFormat};
 
 use crate::error::ClothError;
 use crate::plugin::spawn::builder::{ClothBuilder, ClothBundle, Common, common_methods};
-use crate::sim::build::placed;
 use crate::plugin::spawn::material::ClothMaterial;
 use crate::plugin::spawn::mesh_cloth::{
     MeshLayout, float_attribute, marked_particles, painted_particles,
 };
 use crate::plugin::step::components::{Cloth, ClothConnections, ClothSettings};
+use crate::sim::build::placed;
 
 /// A pin request, resolved against the welded mesh.
 enum Pin {
@@ -126,7 +126,11 @@ impl MeshClothBuilder {
         let shape = MeshLayout::from_mesh(&self.mesh)?;
         let topology = shape.topology();
         let masses = topology.masses(mass, self.common.uniform_mass);
-        let positions = placed(topology.positions.iter().copied(), self.common.position, rotation);
+        let positions = placed(
+            topology.positions.iter().copied(),
+            self.common.position,
+            rotation,
+        );
         let connections = ClothConnections(topology.connections());
         let cloth = Cloth::from(shape.clone());
         self.common.bundle(

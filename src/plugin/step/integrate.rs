@@ -33,8 +33,8 @@ use bevy::time::Fixed;
 
 use crate::plugin::collision::{
     ClothColliderScene, ClothCollision, ClothCollisionStats, ClothContactImpulses,
-    ClothContactLayers, ClothContacts, ClothObstacles, ClothSelfCollision, ClothToClothScratch,
-    ContactImpulse, SelfCollisionScratch,
+    ClothContactLayers, ClothObstacles, ClothSelfCollision, ClothToClothScratch, ContactImpulse,
+    SelfCollisionScratch,
 };
 use crate::plugin::lod::ClothDetail;
 use crate::plugin::spawn::material::ClothMaterial;
@@ -43,12 +43,13 @@ use crate::plugin::step::components::{
     ClothStats, check_indices,
 };
 use crate::plugin::step::pool::compute_pool;
-use crate::sim::collision::scene::{NearCloths, SceneContacts};
 use crate::plugin::step::sleep::{Change, ClothSleep};
 use crate::plugin::step::writeback::ClothScratch;
 use crate::plugin::tearing::tear::ClothTearing;
 use crate::plugin::wind::ClothWind;
 use crate::plugin::worn::tether::{ClothTethers, TetherScratch};
+use crate::sim::collision::cloths::NeighbourContacts;
+use crate::sim::collision::scene::SceneContacts;
 use crate::sim::guard::{GuardedStep, StepInput, step_guarded};
 use crate::sim::lod::{pin_carry, ride_pins};
 use crate::sim::settings::SimSettings;
@@ -151,7 +152,7 @@ impl Totals {
         let totals = &self.0;
         if let Some(c) = &hook.cloths {
             totals[4].fetch_add(1, Ordering::Relaxed);
-            totals[5].fetch_add(c.contacts() as u64, Ordering::Relaxed);
+            totals[5].fetch_add(c.contacts as u64, Ordering::Relaxed);
         }
         let (against, itself) = hook.counts;
         for (total, n) in totals.iter().zip([
@@ -497,12 +498,12 @@ fn integrate(
             (&made.0, t.slack)
         });
     let helper = settings.implicit.helper_thread;
-    let mut cloths = item
+    let cloths = item
         .to_cloth
         .as_deref_mut()
         .filter(|c| !c.near.1.is_empty())
-        .map(|scratch| ClothContacts {
-            obstacles: shared.obstacles,
+        .map(|scratch| NeighbourContacts {
+            neighbours: &shared.obstacles.neighbours,
             scratch,
             contacts: 0,
             gravity: settings.gravity,
@@ -516,7 +517,7 @@ fn integrate(
             .with_contacts_in_solve(in_solve)
             .with_self_collision(self_collision);
         hook.tethers = tethers;
-        hook.cloths = cloths.as_mut().map(|c| c as &mut dyn NearCloths);
+        hook.cloths = cloths;
         hook
     });
     let external = mean_external(

@@ -730,8 +730,10 @@ pub fn undo_crossings(
 }
 
 mod edge_pass;
+mod neighbours;
 use edge_pass::EdgePairs;
 pub use edge_pass::{predict_edge_contacts, undo_edge_crossings};
+pub(crate) use neighbours::{Neighbour, NeighbourContacts, NeighbourScratch};
 
 #[cfg(test)]
 mod tests;

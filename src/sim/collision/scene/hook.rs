@@ -9,6 +9,7 @@ use bevy::math::Vec3;
 use super::colliders::{ClothContactLayers, ColliderScene, ContactImpulse, SceneCollider};
 use super::feedback::{Carried, Feedback};
 use crate::sim::collision::ccd::prevent_crossings;
+use crate::sim::collision::cloths::NeighbourContacts;
 use crate::sim::collision::contact::{MovingCollider, collide_particles};
 use crate::sim::collision::self_collision::keep_apart;
 #[cfg(test)]
@@ -154,34 +155,6 @@ impl SceneContactScratch {
     }
 }
 
-/// A cloth's contacts with other cloths during its step, which
-/// [`SceneContacts`] resolves after the colliders' (the plugin's
-/// cloth–cloth collision).
-pub(crate) trait NearCloths {
-    /// Adds the contacts that hold the cloth (positions `x` m, velocities
-    /// `v` m/s, inverse masses `w` 1/kg) off its neighbours over `sub`.
-    fn predict(
-        &mut self,
-        sub: Substep,
-        now: (&[Vec3], &[Vec3], &[f32]),
-        out: &mut Vec<SolveContact>,
-    );
-
-    /// After a substep: puts back what passed through a neighbour
-    /// (`start` → `x`, m; `v`, m/s; `w`, 1/kg; `held` by the solve, or
-    /// empty).
-    fn resolve(
-        &mut self,
-        sub: Substep,
-        motion: (&[Vec3], &mut [Vec3], &mut [Vec3]),
-        w: &[f32],
-        held: &[Hold],
-    );
-
-    /// Contacts listed and particles put back so far.
-    fn contacts(&self) -> u32;
-}
-
 /// The contacts of one cloth's step with the colliders of a
 /// [`ColliderScene`] and with itself, as the integrators' [`ContactHook`]:
 /// implicit steps hold the contacts
@@ -251,7 +224,7 @@ pub struct SceneContacts<'a, F: Faces = Grid> {
     /// Tests and contacts so far: against colliders, with itself.
     pub(crate) counts: (Counts, Counts),
     /// Its contacts with other cloths, when it has some near.
-    pub(crate) cloths: Option<&'a mut dyn NearCloths>,
+    pub(crate) cloths: Option<NeighbourContacts<'a>>,
 }
 
 impl<'a> SceneContacts<'a> {
@@ -288,7 +261,6 @@ impl<'a> SceneContacts<'a> {
             cloths: None,
         }
     }
-
 }
 
 impl<'a, F: Faces> SceneContacts<'a, F> {

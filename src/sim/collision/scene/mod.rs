@@ -14,6 +14,5 @@ pub use colliders::{
     ClothContactLayers, ColliderKey, ColliderScene, ColliderShape, ContactImpulse, MeshShape,
     SceneCollider,
 };
-pub(crate) use hook::NearCloths;
 pub use hook::{SceneContactScratch, SceneContacts};
 pub(crate) use watch::ColliderWatch;
