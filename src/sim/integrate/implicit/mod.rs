@@ -257,38 +257,15 @@ fn pcg_inner(params: &ImplicitSettings, buffers: &mut ImplicitBuffers) -> (u32, 
     }
     // A mesh cloth's coarse correction is not split between threads.
     let halves = Halves::plan(op, coarse.as_deref()).filter(|_| mesh.is_none());
-    let tried_warm = *warm;
-    let mut delta = f64::NAN;
-    let mut projected = false;
-    if tried_warm {
-        // After hard solves: the best combination of the last ones'
-        // solutions rather than the last alone. Not while the solve holds
-        // contacts: their stiff springs come and go from one step to the
-        // next, and the last steps' motion does not foretell them.
-        // A split solve deflates the whole cloth's combination.
-        if past.wanted() && contacts.none() {
-            projected = past.guess(op, rhs, dv, halves.is_none());
-        }
-        dv.filter(&op.free);
-        op.apply(dv, q);
-        for ((r, b), q) in r.0.iter_mut().zip(&rhs.0).zip(&q.0) {
-            for ((ri, bi), qi) in r.iter_mut().zip(b).zip(q) {
-                *ri = bi - qi;
-            }
-        }
-        precondition(op, coarse.as_deref_mut(), mesh.as_deref_mut(), r, y);
-        delta = dot(r, y);
-    }
-    if delta.is_nan() || delta >= delta0 {
-        // Cold start: Δv = 0, r = b (and y = P⁻¹b, unless the warm try overwrote it).
-        dv.zero();
-        r.copy_from(rhs);
-        if tried_warm {
-            precondition(op, coarse.as_deref_mut(), mesh.as_deref_mut(), r, y);
-        }
-        delta = delta0;
-        projected = false;
-    }
+    let guess = (past.wanted() && contacts.none()).then_some(halves.is_none());
+    let (mut delta, projected) = start(
+        (op, &mut coarse, &mut mesh),
+        rhs,
+        [dv, r, y, q],
+        (past, guess),
+        *warm,
+        delta0,
+    );
     *warm = true;
     // Stop at the relative tolerance, or once the mass-weighted RMS error
     // of Δv is below the velocity tolerance: `rᵀP⁻¹r ≈ Σ m δv²` (P is
@@ -320,9 +297,87 @@ fn pcg_inner(params: &ImplicitSettings, buffers: &mut ImplicitBuffers) -> (u32, 
         choice.record(2, started.elapsed(), iterations);
         return (iterations, (delta / delta0).max(0.0).sqrt() as f32);
     }
+    let past = projected.then_some(past);
+    let limits = (delta, delta0, tol2, params.max_iterations);
+    let (iterations, last) = iterate((op, coarse, mesh), [dv, r, y, q, d], past, dot, limits);
+    delta = last;
+    balance(op, dv, r, [d, q]);
+    if may_share {
+        choice.record(1, started.elapsed(), iterations);
+    }
+    (iterations, (delta / delta0).max(0.0).sqrt() as f32)
+}
+
+/// Stage 1 of [`pcg_inner`]: the `Δv` (m/s) to start from, with its
+/// residual `r = b − AΔv` and `y = P⁻¹r` (`q` scratch), and `rᵀP⁻¹r` for
+/// it. With `warm`, the last step's `Δv` (or, when `guess` is given, the
+/// best combination of the last steps' solutions, `true` in the result;
+/// `guess` says whether it is combined piece by piece, as in a solve not
+/// split between threads) when that is closer than `Δv = 0` (whose
+/// `rᵀP⁻¹r` is `delta0`); else `Δv = 0`.
+#[inline(always)]
+fn start(
+    (op, coarse, mesh): (
+        &mut Operator,
+        &mut Option<&mut Coarse>,
+        &mut Option<&mut MeshCoarse>,
+    ),
+    rhs: &Soa,
+    [dv, r, y, q]: [&mut Soa; 4],
+    (past, guess): (&mut past::Past, Option<bool>),
+    warm: bool,
+    delta0: f64,
+) -> (f64, bool) {
+    let mut delta = f64::NAN;
+    let mut projected = false;
+    if warm {
+        // After hard solves: the best combination of the last ones'
+        // solutions rather than the last alone. Not while the solve holds
+        // contacts: their stiff springs come and go from one step to the
+        // next, and the last steps' motion does not foretell them.
+        // A split solve deflates the whole cloth's combination.
+        if let Some(by_piece) = guess {
+            projected = past.guess(op, rhs, dv, by_piece);
+        }
+        dv.filter(&op.free);
+        op.apply(dv, q);
+        for ((r, b), q) in r.0.iter_mut().zip(&rhs.0).zip(&q.0) {
+            for ((ri, bi), qi) in r.iter_mut().zip(b).zip(q) {
+                *ri = bi - qi;
+            }
+        }
+        precondition(op, coarse.as_deref_mut(), mesh.as_deref_mut(), r, y);
+        delta = dot(r, y);
+    }
+    if delta.is_nan() || delta >= delta0 {
+        // Cold start: Δv = 0, r = b (and y = P⁻¹b, unless the warm try overwrote it).
+        dv.zero();
+        r.copy_from(rhs);
+        if warm {
+            precondition(op, coarse.as_deref_mut(), mesh.as_deref_mut(), r, y);
+        }
+        delta = delta0;
+        projected = false;
+    }
+    (delta, projected)
+}
+
+/// Stage 2 of [`pcg_inner`] on this thread: conjugate gradient iterations
+/// from `Δv`, `r` and `y` (`d`, `q` scratch) until `rᵀP⁻¹r ≤ tol2 · delta0`
+/// or `max` iterations, its directions deflated by the `past` solutions
+/// when the start was their guess. Returns the iterations and the last
+/// `rᵀP⁻¹r`.
+#[inline(always)]
+fn iterate(
+    (op, mut coarse, mut mesh): (&mut Operator, Option<&mut Coarse>, Option<&mut MeshCoarse>),
+    [dv, r, y, q, d]: [&mut Soa; 5],
+    mut past: Option<&mut past::Past>,
+    dot: impl Fn(&Soa, &Soa) -> f64 + Copy,
+    (mut delta, delta0, tol2, max): (f64, f64, f64, u32),
+) -> (u32, f64) {
     d.copy_from(y);
     let mut iterations = 0;
-    while iterations < params.max_iterations && delta > tol2 * delta0 {
+    while iterations < max && delta > tol2 * delta0 {
         op.apply(d, q);
         let dq = dot(d, q);
         if !(dq > 0.0 && dq.is_finite()) {
@@ -341,7 +396,7 @@ fn pcg_inner(params: &ImplicitSettings, buffers: &mut ImplicitBuffers) -> (u32, 
         }
         precondition(op, coarse.as_deref_mut(), mesh.as_deref_mut(), r, y);
         let next = dot(r, y);
-        if projected {
+        if let Some(past) = past.as_deref_mut() {
             past.deflate(y, dot);
         }
         let beta = (next / delta) as f32;
@@ -353,11 +408,7 @@ fn pcg_inner(params: &ImplicitSettings, buffers: &mut ImplicitBuffers) -> (u32, 
         delta = next;
         iterations += 1;
     }
-    balance(op, dv, r, [d, q]);
-    if may_share {
-        choice.record(1, started.elapsed(), iterations);
-    }
-    (iterations, (delta / delta0).max(0.0).sqrt() as f32)
+    (iterations, delta)
 }
 
 /// After the conjugate gradient: corrects `Δv` (m/s) by the one uniform

@@ -380,6 +380,29 @@ impl Operator {
         (alpha, beta): (f32, f32),
     ) {
         let n = inverse_masses.len();
+        self.choose_steps(columns, n, blocks, streamed.clone());
+        let mut diag = std::mem::take(&mut self.precond);
+        diag.reset(n);
+        self.others.clear();
+        self.copy_streams(n, streamed, &mut diag);
+        self.place_blocks(blocks, (alpha, beta), &mut diag);
+        self.add_stream_diagonal(n, &mut diag);
+        self.invert_diagonal(inverse_masses, mass_scale, &mut diag);
+        self.precond = diag;
+        self.tmp.resize(n);
+    }
+
+    /// Stage 1 of [`build_with`](Self::build_with): the particle steps the
+    /// streams hold (a grid's neighbours along and across its `columns`,
+    /// or a mesh's most common steps), the padding, and the streams sized
+    /// for `n` particles.
+    fn choose_steps<'a>(
+        &mut self,
+        columns: usize,
+        n: usize,
+        blocks: &[Block],
+        streamed: impl Iterator<Item = StreamBlocks<'a>> + Clone,
+    ) {
         self.deltas.clear();
         if columns > 0 {
             let c = columns;
@@ -393,7 +416,7 @@ impl Operator {
             // (a tear), not as a buckling link's block comes and goes.
             let key = (n, streamed.clone().count());
             if self.common.0 != key {
-                self.common = (key, common_steps(n, blocks, streamed.clone()));
+                self.common = (key, common_steps(n, blocks, streamed));
             }
             self.deltas.extend_from_slice(&self.common.1);
         }
@@ -416,11 +439,18 @@ impl Operator {
             c.clear();
             c.resize(n + 2 * pad + LANES, 0.0);
         }
-        self.others.clear();
-        let mut diag = std::mem::take(&mut self.precond);
-        diag.reset(n);
-        // Blocks formed by stream first: each fills an empty stream of the
-        // operator (a second one with the same step goes to `others`).
+    }
+
+    /// Stage 2: blocks formed by stream first, each filling an empty stream
+    /// of the operator (a second one with the same step goes to `others`,
+    /// its blocks added to `diag`); the rest of every stream zeroed.
+    fn copy_streams<'a>(
+        &mut self,
+        n: usize,
+        streamed: impl Iterator<Item = StreamBlocks<'a>>,
+        diag: &mut SymBlocks,
+    ) {
+        let pad = self.pad;
         let mut filled: [Option<Range<usize>>; 8] = Default::default();
         for src in streamed {
             // Slots past the last particle hold no link.
@@ -441,7 +471,7 @@ impl Operator {
                 None => {
                     for i in (0..m).filter(|&i| src.t[i] != 0.0 || src.s[i] != 0.0) {
                         let (p, q) = (src.lo + i, src.lo + i + src.delta);
-                        push_other(&mut self.others, &mut diag, (p, q), block(i));
+                        push_other(&mut self.others, diag, (p, q), block(i));
                     }
                 }
             }
@@ -449,6 +479,13 @@ impl Operator {
         for (s, filled) in self.streams.iter_mut().zip(filled) {
             s.zero_outside(filled.unwrap_or(0..0));
         }
+    }
+
+    /// Stage 3: the listed `blocks` (ranked with Rayleigh damping `alpha`,
+    /// `beta`) into a free slot of the stream of their step, or into
+    /// `others` (added to `diag`); which streams have transverse terms.
+    fn place_blocks(&mut self, blocks: &[Block], (alpha, beta): (f32, f32), diag: &mut SymBlocks) {
+        let pad = self.pad;
         for blk in blocks {
             let Some((t, s, u)) = rank_block(blk, alpha, beta) else {
                 continue;
@@ -458,13 +495,18 @@ impl Operator {
             let k = self.deltas.iter().position(|&d| d == q - p);
             match k.filter(|&k| self.streams[k].is_free(pad + p)) {
                 Some(k) => self.streams[k].set(pad + p, t, s, u),
-                None => push_other(&mut self.others, &mut diag, (p, q), c),
+                None => push_other(&mut self.others, diag, (p, q), c),
             }
         }
         for s in &mut self.streams {
             s.transverse = s.t.iter().any(|&t| t != 0.0);
         }
-        // The streams' blocks on the diagonal, both ends, a stream at a time.
+    }
+
+    /// Stage 4: the streams' blocks on the diagonal, both ends, a stream at
+    /// a time, then the extra diagonal blocks.
+    fn add_stream_diagonal(&self, n: usize, diag: &mut SymBlocks) {
+        let pad = self.pad;
         for (&delta, s) in self.deltas.iter().zip(&self.streams) {
             let m = n - delta;
             let (t, sc) = (&s.t[pad..pad + m], &s.s[pad..pad + m]);
@@ -488,6 +530,13 @@ impl Operator {
                 diag.add(i as usize, &c);
             }
         }
+    }
+
+    /// Stage 5: the masses (`mass_scale / w` for the inverse masses `w`,
+    /// 1/kg) added to the diagonal, which becomes its inverse (identity on
+    /// the pinned rows): the preconditioner.
+    fn invert_diagonal(&mut self, inverse_masses: &[f32], mass_scale: f32, diag: &mut SymBlocks) {
+        let n = inverse_masses.len();
         self.mass.resize(n, 0.0);
         self.free.resize(n, 0.0);
         for (i, &w) in inverse_masses.iter().enumerate() {
@@ -508,8 +557,6 @@ impl Operator {
                 c[i] = v;
             }
         }
-        self.precond = diag;
-        self.tmp.resize(n);
     }
 
     /// `out = A d` (filtered: pinned rows zero).
