@@ -346,3 +346,102 @@ fn self_collision_keeps_a_folded_layer_from_passing_through() {
         "without it the layer should pass through, got {without} m"
     );
 }
+
+/// A cloth stepped by `step_guarded` with the plugin's contact hook over a
+/// `ColliderScene` is the cloth the plugin steps against the same
+/// collider, to the bit: a 12×12 sheet dropped onto a ball and a box, 90
+/// fixed steps.
+#[test]
+fn step_guarded_with_scene_contacts_is_the_plugins_step_to_the_bit() {
+    use bevy::math::Isometry3d;
+    use bevy_cloth::plugin::collision::{ColliderKey, ColliderShape, SceneCollider, Shape};
+    use bevy_cloth::sim::collision::scene::{ColliderScene, SceneContactScratch, SceneContacts};
+    use bevy_cloth::sim::guard::{GuardState, StepInput, step_guarded};
+    use bevy_cloth::sim::integrate::StepBuffers;
+
+    let sheet = || {
+        ClothBuilder::new(12, 12)
+            .position(Vec3::new(0.05, 0.95, -0.03))
+            .build()
+            .unwrap()
+    };
+    let ball = Vec3::new(0.0, 0.5, 0.0);
+    let block = Vec3::new(0.45, 0.3, 0.1);
+    let half = Vec3::new(0.2, 0.3, 0.4);
+    let steps = 90;
+
+    let mut app = app();
+    app.world_mut().spawn((
+        ClothCollider::sphere(0.3),
+        Transform::from_translation(ball),
+    ));
+    app.world_mut().spawn((
+        ClothCollider::cuboid(half).with_friction(0.6),
+        Transform::from_translation(block),
+    ));
+    let e = app.world_mut().spawn(sheet()).id();
+    for _ in 0..steps {
+        app.update();
+    }
+    let by_plugin = app.world().get::<ClothParticles>(e).unwrap().0.clone();
+
+    let mut cloth = sheet();
+    let mut scene = ColliderScene::default();
+    let at = |p: Vec3| Isometry3d::from_translation(p);
+    let sphere = ColliderShape::Analytic(Shape::Sphere { radius: 0.3 });
+    let cuboid = ColliderShape::Analytic(Shape::Cuboid { half_extents: half });
+    scene
+        .push(SceneCollider::new(
+            ColliderKey(1),
+            sphere,
+            at(ball),
+            at(ball),
+        ))
+        .unwrap();
+    scene
+        .push(SceneCollider::new(ColliderKey(2), cuboid, at(block), at(block)).with_friction(0.6))
+        .unwrap();
+    let defaults = ClothSettings::default().0;
+    let settings = cloth
+        .material
+        .settings(&defaults, cloth.cloth.spacing())
+        .into_owned();
+    let thickness = bevy_cloth::plugin::collision::ClothCollision::default().thickness;
+    let (mut buffers, mut guard) = (StepBuffers::default(), GuardState::default());
+    let mut scratch = SceneContactScratch::default();
+    for _ in 0..steps {
+        let p = &cloth.particles;
+        scratch.select_near(&scene, &p.positions, 1.0, ClothContactLayers::ALL);
+        let helper = settings.implicit.helper_thread;
+        let mut contacts = SceneContacts::new(&scene, &cloth.connections, thickness, &mut scratch)
+            .with_helper_thread(helper);
+        step_guarded(
+            StepInput::new(
+                &mut cloth.particles,
+                &cloth.connections,
+                &settings,
+                &mut buffers,
+                &mut guard,
+                1.0 / 60.0,
+            )
+            .with_contacts(Some(&mut contacts))
+            .with_helper_thread(helper),
+        );
+    }
+    let bits = |v: &[Vec3]| {
+        v.iter()
+            .map(|p| p.to_array().map(f32::to_bits))
+            .collect::<Vec<_>>()
+    };
+    let touching = by_plugin
+        .positions
+        .iter()
+        .filter(|p| p.distance(ball) < 0.33 || (**p - block).abs().cmple(half + 0.03).all())
+        .count();
+    assert!(touching > 20, "{touching} particles on the colliders");
+    assert_eq!(bits(&cloth.particles.positions), bits(&by_plugin.positions));
+    assert_eq!(
+        bits(&cloth.particles.velocities),
+        bits(&by_plugin.velocities)
+    );
+}
