@@ -1,6 +1,7 @@
 //! Unit tests of the implicit integrators: the solver against a dense
 //! solve, pins, the operator's block order, and the orders of accuracy.
 
+use super::operator::dot;
 use super::*;
 use crate::plugin::spawn::builder::ClothBuilder;
 use crate::sim::connections::{Connections, Link};
