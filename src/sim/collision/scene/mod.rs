@@ -16,3 +16,6 @@ pub use colliders::{
 };
 pub use hook::{SceneContactScratch, SceneContacts};
 pub(crate) use watch::ColliderWatch;
+
+#[cfg(test)]
+mod tests;
