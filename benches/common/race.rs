@@ -1,6 +1,7 @@
 //! Timing cloths against each other: the runner trait, this crate's
-//! hanging cloth, the turns, the summary and the strain the comparison
-//! benches print.
+//! cloth in the two comparison scenes (hanging at rest, and falling and
+//! swinging), an empty app, the turns, the summary and the strain the
+//! comparison benches print.
 
 #![allow(dead_code, reason = "each comparison bench uses the part it needs")]
 
@@ -36,6 +37,42 @@ pub fn structural_strain(n: usize, h: f32, x: impl Fn(usize) -> Vec3) -> f32 {
     worst
 }
 
+/// The comparison scenes of a 1 m N × N cloth.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Scene {
+    /// Standing in a vertical plane, pinned at its two top corners, let go
+    /// flat at rest: it hangs still (the easy case).
+    Hanging,
+    /// Laid horizontal at 1 m, pinned at the two corners of one edge, let
+    /// go: it falls and swings (the case a player sees).
+    Motion,
+}
+
+/// A headless App with no cloth and no cloth plugin: what a frame costs
+/// before any cloth work.
+pub struct Empty(App);
+
+impl Empty {
+    pub fn new() -> Self {
+        let mut app = App::new();
+        app.add_plugins(MinimalPlugins)
+            .insert_resource(Time::<Fixed>::from_hz(60.0))
+            .insert_resource(TimeUpdateStrategy::FixedTimesteps(1));
+        app.update();
+        Self(app)
+    }
+}
+
+impl Runner for Empty {
+    fn frame(&mut self) {
+        self.0.update();
+    }
+
+    fn strain(&self) -> f32 {
+        0.0
+    }
+}
+
 /// This crate, with its defaults but sleep, in a headless App.
 pub struct Ours {
     app: App,
@@ -54,22 +91,37 @@ impl Ours {
 
     /// The same cloth with `settings` as the defaults.
     pub fn with_settings(n: usize, settings: SimSettings) -> Self {
+        Self::in_scene(n, Scene::Hanging, settings)
+    }
+
+    /// The cloth of `scene` with `settings` as the defaults.
+    pub fn in_scene(n: usize, scene: Scene, settings: SimSettings) -> Self {
         let mut app = App::new();
         app.add_plugins((MinimalPlugins, ClothPlugin::default()))
             .insert_resource(Time::<Fixed>::from_hz(60.0))
             .insert_resource(TimeUpdateStrategy::FixedTimesteps(1))
             .insert_resource(ClothSettingsDefaults(settings));
-        let cloth = ClothBuilder::new(n as u32, n as u32)
-            .size(1.0, 1.0)
-            .position(Vec3::new(0.0, 1.5, 0.0))
-            .rotation(Quat::from_rotation_x(std::f32::consts::FRAC_PI_2))
-            .pin_corner(GridCorner::TopLeft)
-            .pin_corner(GridCorner::TopRight)
-            .build()
-            .expect("valid");
-        let cloth = app.world_mut().spawn(cloth).id();
+        let builder = ClothBuilder::new(n as u32, n as u32).size(1.0, 1.0);
+        let cloth = match scene {
+            Scene::Hanging => builder
+                .position(Vec3::new(0.0, 1.5, 0.0))
+                .rotation(Quat::from_rotation_x(std::f32::consts::FRAC_PI_2))
+                .pin_corner(GridCorner::TopLeft)
+                .pin_corner(GridCorner::TopRight),
+            Scene::Motion => builder
+                .position(Vec3::new(0.0, 1.0, 0.0))
+                .pin(0)
+                .pin(n as u32 - 1),
+        };
+        let cloth = app.world_mut().spawn(cloth.build().expect("valid")).id();
         app.update();
         Self { app, cloth, n }
+    }
+
+    /// The implicit solve's iterations in the last step.
+    pub fn iterations(&self) -> u32 {
+        let stats = self.app.world().get::<ClothStats>(self.cloth);
+        stats.map_or(0, |s| s.solver_iterations)
     }
 }
 
