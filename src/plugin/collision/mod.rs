@@ -55,6 +55,7 @@ use crate::plugin::step::pose::WorldPose;
 use crate::plugin::step::schedule::ClothSystems;
 pub(crate) use crate::sim::collision::SelfCollisionBuffers;
 use crate::sim::collision::contact::seed_triangle_pass;
+use crate::sim::collision::scene::check_surface;
 pub use crate::sim::collision::{Counts, Shape, TriMesh};
 use crate::sim::particles::Particles;
 
@@ -165,15 +166,7 @@ impl ClothCollider {
     /// restitution (in [0, 1]).
     pub fn validate(&self) -> Result<(), ClothError> {
         self.shape.validate()?;
-        if !(self.friction.is_finite() && self.friction >= 0.0) {
-            return Err(ClothError::InvalidCollider(
-                "friction must be finite and non-negative",
-            ));
-        }
-        if !(0.0..=1.0).contains(&self.restitution) {
-            return Err(ClothError::InvalidCollider("restitution must be in [0, 1]"));
-        }
-        Ok(())
+        check_surface(self.friction, self.restitution)
     }
 }
 

@@ -41,13 +41,13 @@ impl Common {
     /// The checks both builders make of what they share: the material, the
     /// mass (the material's density unless given; finite and positive) and
     /// the placement (finite, a rotation of non-zero length). Returns the
-    /// mass and the normalised rotation.
-    pub(crate) fn check(&self) -> Result<(Mass, Quat), ClothError> {
+    /// mass, its number (kg/m² or kg) and the normalised rotation.
+    pub(crate) fn check(&self) -> Result<(Mass, f32, Quat), ClothError> {
         self.material.validate()?;
         let fabric_density = self.material.fabric().map_or(0.15, |f| f.density);
         let mass = self.mass.unwrap_or(Mass::PerArea(fabric_density));
-        mass.checked()?;
-        Ok((mass, checked_placement(self.position, self.rotation)?))
+        let m = mass.checked()?;
+        Ok((mass, m, checked_placement(self.position, self.rotation)?))
     }
 
     /// The bundle both builders make: checks the particles' `masses` (kg;
@@ -269,8 +269,7 @@ impl ClothBuilder {
     /// Checks the description and makes the cloth.
     pub fn build(self) -> Result<ClothBundle, ClothError> {
         let grid = Grid::checked(self.cols, self.rows, self.size)?;
-        let (mass, rotation) = self.common.check()?;
-        let m = mass.checked()?;
+        let (mass, m, rotation) = self.common.check()?;
         let masses = grid.masses(mass, self.common.uniform_mass);
         let positions = placed(grid.rest_positions(), self.common.position, rotation);
         let connections = ClothConnections::grid(grid.cols, grid.rows, &positions);

@@ -121,8 +121,7 @@ impl MeshClothBuilder {
     /// has no colours or attribute for ([`ClothError::UnsupportedMesh`]),
     /// and an invalid material, mass or placement.
     pub fn build(self) -> Result<ClothBundle, ClothError> {
-        let (mass, rotation) = self.common.check()?;
-        let m = mass.checked()?;
+        let (mass, m, rotation) = self.common.check()?;
         let shape = MeshLayout::from_mesh(&self.mesh)?;
         let topology = shape.topology();
         let masses = topology.masses(mass, self.common.uniform_mass);

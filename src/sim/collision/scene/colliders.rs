@@ -103,6 +103,20 @@ impl Default for ClothContactLayers {
     }
 }
 
+/// Checks a collider's surface: friction μ finite and ≥ 0, restitution e
+/// in [0, 1].
+pub(crate) fn check_surface(friction: f32, restitution: f32) -> Result<(), ClothError> {
+    if !(friction.is_finite() && friction >= 0.0) {
+        return Err(ClothError::InvalidCollider(
+            "friction must be finite and non-negative",
+        ));
+    }
+    if !(0.0..=1.0).contains(&restitution) {
+        return Err(ClothError::InvalidCollider("restitution must be in [0, 1]"));
+    }
+    Ok(())
+}
+
 /// A collider over the current fixed step, as a source hands it to the
 /// [`ColliderScene`].
 #[derive(Clone, Debug)]
@@ -278,14 +292,7 @@ impl SceneCollider {
         if !(finite(&self.start) && finite(&self.end)) {
             return Err(ClothError::InvalidCollider("pose must be finite"));
         }
-        if !(self.friction.is_finite() && self.friction >= 0.0) {
-            return Err(ClothError::InvalidCollider(
-                "friction must be finite and non-negative",
-            ));
-        }
-        if !(0.0..=1.0).contains(&self.restitution) {
-            return Err(ClothError::InvalidCollider("restitution must be in [0, 1]"));
-        }
+        check_surface(self.friction, self.restitution)?;
         if self.mass.is_nan() || self.mass <= 0.0 {
             return Err(ClothError::InvalidCollider("mass must be positive"));
         }

@@ -10,6 +10,7 @@ mod feedback;
 mod hook;
 mod watch;
 
+pub(crate) use colliders::check_surface;
 pub use colliders::{
     ClothContactLayers, ColliderKey, ColliderScene, ColliderShape, ContactImpulse, MeshShape,
     SceneCollider,
