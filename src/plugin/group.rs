@@ -111,9 +111,11 @@ impl Plugin for ClothCorePlugin {
             .register_type::<schedule::ClothPause>()
             .configure_sets(
                 fixed,
+                // With no cloth, none of the members' systems runs.
                 (Prepare, Crease, Forces, Integrate, Collide, Writeback)
                     .chain()
-                    .run_if(schedule::cloth_running),
+                    .run_if(schedule::cloth_running)
+                    .run_if(schedule::cloths_present),
             )
             .configure_sets(
                 fixed,

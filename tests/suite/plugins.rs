@@ -242,3 +242,40 @@ fn without_diagnostics_the_store_has_no_cloth_paths() {
     let store = app.world().resource::<DiagnosticsStore>();
     assert!(store.get(&STEP_TIME).is_none());
 }
+
+/// Counts its runs.
+#[derive(Resource, Default)]
+struct Runs(u32);
+
+#[test]
+fn a_world_without_a_cloth_runs_none_of_the_steps_systems() {
+    // A system in each of the step's sets stands for the members' systems
+    // there: it runs while a cloth exists, and not before or after.
+    let mut app = app_with(all());
+    app.init_resource::<Runs>();
+    for set in [
+        ClothSystems::Prepare,
+        ClothSystems::Crease,
+        ClothSystems::Forces,
+        ClothSystems::Integrate,
+        ClothSystems::Collide,
+        ClothSystems::Writeback,
+    ] {
+        app.add_systems(FixedUpdate, (|mut r: ResMut<Runs>| r.0 += 1).in_set(set));
+    }
+    let runs = |app: &mut App, frames: u32| {
+        app.world_mut().resource_mut::<Runs>().0 = 0;
+        for _ in 0..frames {
+            app.update();
+        }
+        app.world().resource::<Runs>().0
+    };
+    assert_eq!(runs(&mut app, 10), 0, "no cloth yet");
+    let cloth = ClothBuilder::new(8, 8).build().unwrap();
+    let cloth = app.world_mut().spawn(cloth).id();
+    assert_eq!(runs(&mut app, 10), 60, "one cloth: every set, every step");
+    // Gone: one more step clears what it left, then nothing runs.
+    app.world_mut().despawn(cloth);
+    assert_eq!(runs(&mut app, 10), 6, "the step after the cloth despawned");
+    assert_eq!(runs(&mut app, 10), 0, "no cloth since");
+}

@@ -385,7 +385,9 @@ pub(crate) fn configure(
     use bevy::app::PostUpdate;
     use bevy::ecs::query::With;
     use bevy::ecs::schedule::IntoScheduleConfigs;
-    use bevy::ecs::schedule::common_conditions::{any_match_filter, resource_exists};
+    use bevy::ecs::schedule::common_conditions::{
+        any_match_filter, any_with_component, resource_exists,
+    };
     app.init_resource::<ClothMeshSettings>()
         .register_type::<ClothMeshSettings>()
         .add_systems(
@@ -394,6 +396,7 @@ pub(crate) fn configure(
             // too: a paused cloth is still, not interpolated.
             remember_positions
                 .before(crate::ClothSystems::Prepare)
+                .run_if(any_with_component::<Cloth>)
                 .run_if(resource_exists::<Assets<Mesh>>)
                 .run_if(|s: Res<ClothMeshSettings>| s.interpolate),
         );
@@ -402,6 +405,7 @@ pub(crate) fn configure(
         (ClothMeshSystems::Attach, ClothMeshSystems::Sync)
             .chain()
             .before(AssetEventSystems)
+            .run_if(any_with_component::<Cloth>)
             .run_if(resource_exists::<Assets<Mesh>>),
     )
     .add_systems(

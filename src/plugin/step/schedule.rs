@@ -16,7 +16,10 @@
 //!    to their anchors, external forces are cleared, [`ClothStats`](crate::plugin::step::components::ClothStats)
 //!    are measured. Read the stepped state after this set.
 //!
-//! All six sets run only while the simulation is not paused ([`ClothPause`]).
+//! All six sets run only while the simulation is not paused ([`ClothPause`])
+//! and there is a cloth: a world without one runs none of their systems,
+//! yours in them included (but for one step after the last cloth is gone,
+//! which clears what it left).
 //!
 //! The plugin's systems in these sets run on the main thread, which waits
 //! for the schedule anyway: a schedule whose systems all run there never
@@ -30,7 +33,9 @@
 
 use bevy::ecs::schedule::SystemSet;
 use bevy::ecs::system::NonSendMarker;
-use bevy::prelude::{Reflect, ReflectResource, Res, ResMut, Resource};
+use bevy::prelude::{Local, Query, Reflect, ReflectResource, Res, ResMut, Resource, With};
+
+use crate::plugin::step::components::Cloth;
 
 /// The stages of a cloth step in `FixedUpdate`, chained in declaration order.
 #[derive(SystemSet, Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -81,6 +86,18 @@ pub struct ClothPause {
 /// Run condition of the [`ClothSystems`] sets: not paused, or a step asked for.
 pub fn cloth_running(pause: Option<Res<ClothPause>>) -> bool {
     pause.is_none_or(|p| !p.paused || p.steps > 0)
+}
+
+/// Run condition of the [`ClothSystems`] sets: there is a cloth, or there
+/// was one at the last step. The step after the last cloth is gone runs
+/// once more, so that what the cloths left behind is cleared (the collider
+/// scene, the contacts' impulses, the bridges' forces on the bodies they
+/// held up); after it nothing runs until a cloth appears.
+pub(crate) fn cloths_present(cloths: Query<(), With<Cloth>>, mut had: Local<bool>) -> bool {
+    let any = !cloths.is_empty();
+    let run = any || *had;
+    *had = any;
+    run
 }
 
 /// Run condition of [`consume_step`]: the simulation is paused.
