@@ -118,6 +118,13 @@ impl Ours {
         Self { app, cloth, n }
     }
 
+    /// The cloth `cloth` of `n × n` particles already spawned in `app`,
+    /// stepped once.
+    pub fn in_app(mut app: App, cloth: Entity, n: usize) -> Self {
+        app.update();
+        Self { app, cloth, n }
+    }
+
     /// The implicit solve's iterations in the last step.
     pub fn iterations(&self) -> u32 {
         let stats = self.app.world().get::<ClothStats>(self.cloth);

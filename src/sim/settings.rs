@@ -164,7 +164,11 @@ pub struct ImplicitSettings {
     /// linked particles that move rigidly (a translation and a rotation
     /// each), 4 groups and so on (35 → 10 iterations a step on a
     /// 3,997-particle disc).
-    /// Smaller cloths solve without it. On by default.
+    /// Smaller cloths solve without it. On by default. It costs more than
+    /// it saves where solves are short (small cloths, cloths kept awake at
+    /// rest), but without it the solve's stopping rule undercounts slow,
+    /// whole-cloth motion: a cloth lying on a turning board slides off its
+    /// place (docs/performance.md, "Where the solver's machinery pays").
     pub coarse_grid: bool,
     /// Whether a grid cloth of at least 2048 particles shares the passes
     /// of its conjugate gradient with a helper thread: on a 2-core x86-64
