@@ -111,7 +111,8 @@ impl Plugin for ClothCorePlugin {
             .register_type::<schedule::ClothPause>()
             .configure_sets(
                 fixed,
-                // With no cloth, none of the members' systems runs.
+                // With no cloth (since the step after the last one went),
+                // none of the members' systems runs.
                 (Prepare, Crease, Forces, Integrate, Collide, Writeback)
                     .chain()
                     .run_if(schedule::cloth_running)
