@@ -55,26 +55,13 @@ fn backward_euler_step(
         add_contact_rhs(buffers);
         buffers.rhs.filter(&buffers.op.free);
     };
-    fill(buffers);
-    solve(dynamics, buffers);
-    for _ in 0..revisions(buffers) {
-        if !(held && revise(buffers, |i| v[i], (h, h))) {
-            break;
-        }
-        build_held(dynamics, (h, h * h), buffers);
-        fill(buffers);
-        solve(dynamics, buffers);
-    }
+    solve_revised(dynamics, buffers, (held, v), (h, h * h, h), fill);
     for i in 0..x.len() {
         v[i] += buffers.dv.get(i);
         x[i] += h * v[i];
     }
     if held {
-        let ImplicitBuffers {
-            contacts, dv, op, ..
-        } = buffers;
-        op.coupling.solved(|i| dv.get(i));
-        contacts.finish((x, v), |i| dv.get(i), &op.coupling, (h, h));
+        finish_held(buffers, (x, v), (h, h));
     }
 }
 
@@ -110,6 +97,47 @@ fn revise(buffers: &mut ImplicitBuffers, v: impl Fn(usize) -> Vec3, steps: (f32,
         op.coupling.solved(|i| dv.get(i));
     }
     contacts.revise(|i| v(i) + dv.get(i), |i| dv.get(i), &op.coupling, steps)
+}
+
+/// Fills the right-hand side (`fill`) and solves the step; when it holds
+/// contacts (`held`), revises them ([`revise`], `v` the velocities the
+/// solve started from, m/s) and builds, fills and solves again, up to
+/// [`revisions`] times. `α` (s) and `β` (s²) are the operator's, `h` (s)
+/// the step's.
+fn solve_revised(
+    dynamics: &Dynamics,
+    buffers: &mut ImplicitBuffers,
+    (held, v): (bool, &[Vec3]),
+    (alpha, beta, h): (f32, f32, f32),
+    fill: impl Fn(&mut ImplicitBuffers),
+) {
+    fill(buffers);
+    solve(dynamics, buffers);
+    for _ in 0..revisions(buffers) {
+        if !(held && revise(buffers, |i| v[i], (alpha, h))) {
+            break;
+        }
+        build_held(dynamics, (alpha, beta), buffers);
+        fill(buffers);
+        solve(dynamics, buffers);
+    }
+}
+
+/// After a step that held contacts, at its end state `(x, v)` (m, m/s):
+/// the free bodies' couplings take the solve's `Δv`, and the contacts
+/// finish ([`ContactBuffers::finish`](super::ContactBuffers::finish): a
+/// reversed sliding stops, the forces and holds for the next step; `γ`,
+/// `h` in s).
+fn finish_held(
+    buffers: &mut ImplicitBuffers,
+    (x, v): (&mut [Vec3], &mut [Vec3]),
+    steps: (f32, f32),
+) {
+    let ImplicitBuffers {
+        contacts, dv, op, ..
+    } = buffers;
+    op.coupling.solved(|i| dv.get(i));
+    contacts.finish((x, v), |i| dv.get(i), &op.coupling, steps);
 }
 
 /// Adds the sliding contacts' terms to the right-hand side.
@@ -192,16 +220,7 @@ pub fn bdf2(
         add_contact_rhs(buffers);
         buffers.rhs.filter(&buffers.op.free);
     };
-    fill(buffers);
-    solve(dynamics, buffers);
-    for _ in 0..revisions(buffers) {
-        if !(held && revise(buffers, |i| v[i], (alpha, h))) {
-            break;
-        }
-        build_held(dynamics, (alpha, beta), buffers);
-        fill(buffers);
-        solve(dynamics, buffers);
-    }
+    solve_revised(dynamics, buffers, (held, v), (alpha, beta, h), fill);
     for i in 0..x.len() {
         let (xn, vn) = (x[i], v[i]);
         let v1 = vn + buffers.dv.get(i);
@@ -218,11 +237,7 @@ pub fn bdf2(
         v[i] = v1;
     }
     if held {
-        let ImplicitBuffers {
-            contacts, dv, op, ..
-        } = buffers;
-        op.coupling.solved(|i| dv.get(i));
-        contacts.finish((x, v), |i| dv.get(i), &op.coupling, (alpha, h));
+        finish_held(buffers, (x, v), (alpha, h));
     }
     buffers.expected_x.copy_from_slice(x);
 }
