@@ -39,7 +39,7 @@ use race::{Empty, Runner, race, summary};
 /// Frames timed per runner.
 const FRAMES: usize = 3000;
 
-/// An App and the number of its frames so far.
+/// A headless App, stepped a frame at a time.
 struct Frames(App);
 
 impl Runner for Frames {
