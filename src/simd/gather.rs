@@ -1,7 +1,8 @@
-//! The implicit operator's product gathered per particle: sixteen (AVX-512)
-//! or eight (AVX2 with FMA) particles at a time sum the terms of every
-//! stream of blocks in registers and write once, where a portable product
-//! forms each stream's products and scatters them to both ends.
+//! The implicit operator's product gathered per particle: sixteen (AVX-512),
+//! eight (AVX2 with FMA) or four (wasm32's simd128) particles at a time sum
+//! the terms of every stream of blocks in registers and write once, where a
+//! portable product forms each stream's products and scatters them to both
+//! ends.
 //!
 //! For particles `p` in a range,
 //! `out_p = m_p d_p + Σ_δ C_δ[p](d_p − d_{p+δ}) + C_δ[p−δ](d_p − d_{p−δ})`,
@@ -19,8 +20,12 @@ pub const LANES: usize = 16;
 /// One stream of blocks `C = t I + s u uᵀ` (kg), of the pairs `(p, p + δ)`.
 #[derive(Clone, Copy, Debug)]
 #[cfg_attr(
-    not(any(test, target_arch = "x86_64")),
-    expect(dead_code, reason = "read by the x86-64 kernels alone")
+    not(any(
+        test,
+        target_arch = "x86_64",
+        all(target_arch = "wasm32", target_feature = "simd128")
+    )),
+    expect(dead_code, reason = "read by the SIMD kernels alone")
 )]
 pub struct Blocks<'a> {
     /// `δ`, the index step of the pairs (particles, ≤ the product's `pad`).
@@ -81,10 +86,10 @@ impl Product<'_> {
 
 /// Rows `range` of the product of `d` (padded: its particle `p` at
 /// `pad + p`) into `out` (`out[c][i]` is row `range.start + i`), with the
-/// gathered kernel of `level`. Returns `false`, writing nothing, at
-/// [`Level::Scalar`]: the portable product scatters instead (see
-/// [`reference()`] for what every kernel computes). Panics if the arrays are
-/// shorter than [`Product`] says.
+/// gathered kernel of `level`. Returns `false`, writing nothing, at a level
+/// without one ([`Level::Scalar`]): the portable product scatters instead
+/// (see [`reference()`] for what every kernel computes). Panics if the
+/// arrays are shorter than [`Product`] says.
 pub fn gather<'a>(
     level: Level,
     product: &Product,
@@ -102,23 +107,33 @@ pub fn gather<'a>(
         out.iter().all(|o| o.len() == range.len()),
         "out is not the range"
     );
-    #[cfg(target_arch = "x86_64")]
-    {
-        let out = out.map(|o| o.as_mut_ptr());
-        match level {
+    let out = out.map(|o| o.as_mut_ptr());
+    match level {
+        #[cfg(target_arch = "x86_64")]
+        Level::Avx512 => {
             // SAFETY: `check` bounded every load by the arrays' lengths,
-            // `out` holds the range, and the CPU has the level's features.
-            Level::Avx512 => unsafe { x86::avx512(product, streams, d, out, range) },
-            // SAFETY: as above.
-            Level::Avx2 => unsafe { x86::avx2(product, streams, d, out, range) },
-            Level::Scalar => unreachable!(),
+            // `out` holds the range, and the CPU has AVX-512F (`detected`).
+            unsafe { x86::avx512(product, streams, d, out, range) };
+            true
         }
-        true
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        let _ = (out, range);
-        false
+        #[cfg(target_arch = "x86_64")]
+        Level::Avx2 => {
+            // SAFETY: as above, with AVX2 and FMA.
+            unsafe { x86::avx2(product, streams, d, out, range) };
+            true
+        }
+        #[cfg(all(target_arch = "wasm32", target_feature = "simd128"))]
+        Level::Simd128 => {
+            // SAFETY: `check` bounded every load by the arrays' lengths,
+            // and `out` holds the range.
+            unsafe { wasm::simd128(product, streams, d, out, range) };
+            true
+        }
+        // A level this build has no kernel for.
+        _ => {
+            let _ = (streams, out, range);
+            false
+        }
     }
 }
 
@@ -296,6 +311,95 @@ mod x86 {
     }
 }
 
+#[cfg(all(target_arch = "wasm32", target_feature = "simd128"))]
+mod wasm {
+    use std::arch::wasm32::*;
+    use std::ops::Range;
+
+    use super::{Blocks, Product};
+
+    /// [`gather`](super::gather) in simd128, four particles at a time.
+    /// simd128 has no fused multiply-add: each term is a product, then a
+    /// sum.
+    ///
+    /// # Safety
+    /// [`Product::check`] held; `out` points to three arrays of
+    /// `range.len()` values no one else reads or writes meanwhile.
+    pub(super) unsafe fn simd128<'a>(
+        product: &Product,
+        streams: impl Iterator<Item = Blocks<'a>> + Clone,
+        [dx, dy, dz]: [&[f32]; 3],
+        out: [*mut f32; 3],
+        range: Range<usize>,
+    ) {
+        const WIDTH: usize = 4;
+        let (first, end, pad) = (range.start, range.end, product.pad);
+        let (dx, dy, dz) = (dx.as_ptr(), dy.as_ptr(), dz.as_ptr());
+        let fma = |a: v128, b: v128, c: v128| f32x4_add(f32x4_mul(a, b), c);
+        for start in range.step_by(WIDTH) {
+            // Particles in this vector: `mass` and `free` end at the last
+            // particle, so a short vector reads and writes them lane by lane.
+            let lanes = (end - start).min(WIDTH);
+            let short = |v: &[f32]| {
+                let mut lane = [0.0f32; WIDTH];
+                lane[..lanes].copy_from_slice(&v[start..start + lanes]);
+                f32x4(lane[0], lane[1], lane[2], lane[3])
+            };
+            // SAFETY: indices within the lengths `check` bounded (`d` and
+            // the streams hold `LANES` values past the last particle).
+            unsafe {
+                let at = |c: *const f32, i: usize| v128_load(c.add(i).cast::<v128>());
+                let here = pad + start;
+                let (ax, ay, az) = (at(dx, here), at(dy, here), at(dz, here));
+                let mass = short(product.mass);
+                let mut sx = f32x4_mul(mass, ax);
+                let mut sy = f32x4_mul(mass, ay);
+                let mut sz = f32x4_mul(mass, az);
+                for c in streams.clone() {
+                    let (t, s) = (c.t.as_ptr(), c.s.as_ptr());
+                    let [ux, uy, uz] = c.u.map(|c| c.as_ptr());
+                    // C_δ[p] (pair p, p + δ) with e = d_p − d_{p+δ}, then
+                    // C_δ[p − δ] (pair p − δ, p) with e = d_p − d_{p−δ}:
+                    // C e = t e + s (u·e) u.
+                    let delta = c.delta;
+                    for (block, other) in [(here, here + delta), (here - delta, here - delta)] {
+                        let ex = f32x4_sub(ax, at(dx, other));
+                        let ey = f32x4_sub(ay, at(dy, other));
+                        let ez = f32x4_sub(az, at(dz, other));
+                        let (bx, by, bz) = (at(ux, block), at(uy, block), at(uz, block));
+                        let along = f32x4_mul(bx, ex);
+                        let along = fma(by, ey, along);
+                        let along = fma(bz, ez, along);
+                        let k = f32x4_mul(at(s, block), along);
+                        if c.transverse {
+                            let tb = at(t, block);
+                            sx = fma(tb, ex, sx);
+                            sy = fma(tb, ey, sy);
+                            sz = fma(tb, ez, sz);
+                        }
+                        sx = fma(k, bx, sx);
+                        sy = fma(k, by, sy);
+                        sz = fma(k, bz, sz);
+                    }
+                }
+                // The filter: pinned rows (free = 0) are zero.
+                let keep = f32x4_ne(short(product.free), f32x4_splat(0.0));
+                for (o, s) in out.into_iter().zip([sx, sy, sz]) {
+                    let row = o.add(start - first);
+                    let s = v128_and(s, keep);
+                    if lanes == WIDTH {
+                        v128_store(row.cast::<v128>(), s);
+                    } else {
+                        let mut lane = [0.0f32; WIDTH];
+                        v128_store(lane.as_mut_ptr().cast::<v128>(), s);
+                        std::ptr::copy_nonoverlapping(lane.as_ptr(), row, lanes);
+                    }
+                }
+            }
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -410,7 +514,7 @@ mod tests {
                 let [gx, gy, gz] = &mut got;
                 let it = streams.iter().copied();
                 let ran = gather(level, &product, it, c.d(), [gx, gy, gz], range.clone());
-                assert_eq!(ran, level != Level::Scalar);
+                assert_eq!(ran, level != Level::Scalar, "{level:?}");
                 if !ran {
                     continue;
                 }
