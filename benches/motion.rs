@@ -13,13 +13,18 @@
 //!
 //! Printed per scene: the median, 95th percentile and largest ms per
 //! frame, the mean and largest iteration count of the solve, the frames
-//! that ended at the iteration cap, and the largest structural strain over
-//! the run. `cargo bench --bench motion -- 32 64` limits the grid sizes.
+//! that ended at the iteration cap, the largest structural strain over
+//! the run, and the heap the cloth holds at the end of it, in bytes a
+//! particle (everything allocated since just before the spawn and not yet
+//! freed: its components, its solver's buffers, its render mesh). `cargo
+//! bench --bench motion -- 32 64` limits the grid sizes.
 
 mod common;
 #[path = "common/race.rs"]
 mod race;
 
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Instant;
 
 use bevy::prelude::*;
@@ -27,6 +32,51 @@ use bevy_cloth::plugin::spawn::disc_mesh;
 use bevy_cloth::prelude::*;
 use common::headless;
 use race::sizes;
+
+/// Counts the bytes allocated and not yet freed.
+struct Counting;
+
+static LIVE: AtomicUsize = AtomicUsize::new(0);
+
+// SAFETY: every call is passed on to the system allocator unchanged.
+unsafe impl GlobalAlloc for Counting {
+    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+        // SAFETY: the caller's contract is the system allocator's.
+        let p = unsafe { System.alloc(layout) };
+        if !p.is_null() {
+            LIVE.fetch_add(layout.size(), Ordering::Relaxed);
+        }
+        p
+    }
+
+    unsafe fn alloc_zeroed(&self, layout: Layout) -> *mut u8 {
+        // SAFETY: as for `alloc`.
+        let p = unsafe { System.alloc_zeroed(layout) };
+        if !p.is_null() {
+            LIVE.fetch_add(layout.size(), Ordering::Relaxed);
+        }
+        p
+    }
+
+    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
+        // SAFETY: as for `alloc`.
+        let p = unsafe { System.realloc(ptr, layout, new_size) };
+        if !p.is_null() {
+            LIVE.fetch_add(new_size, Ordering::Relaxed);
+            LIVE.fetch_sub(layout.size(), Ordering::Relaxed);
+        }
+        p
+    }
+
+    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+        // SAFETY: as for `alloc`.
+        unsafe { System.dealloc(ptr, layout) };
+        LIVE.fetch_sub(layout.size(), Ordering::Relaxed);
+    }
+}
+
+#[global_allocator]
+static ALLOCATOR: Counting = Counting;
 
 /// Grid sizes timed unless the command line names others.
 const SIZES: [usize; 4] = [32, 64, 128, 256];
@@ -40,16 +90,17 @@ struct Run {
     iterations: Vec<u32>,
     cap: u32,
     strain: f32,
+    /// Heap held at the end for each particle, bytes.
+    bytes_per_particle: f64,
 }
 
-/// Runs `cloth` for 3 s in an app with every default (`wind` blowing).
-fn run(cloth: impl Bundle, wind: Option<Wind>) -> Run {
+/// Runs the cloth `build` makes for 3 s in an app with every default
+/// (`wind` blowing).
+fn run<B: Bundle>(build: impl FnOnce() -> B, wind: Option<Wind>) -> Run {
     let mut app = headless(ClothSettings::default());
     if let Some(wind) = wind {
         app.insert_resource(ClothWind(wind));
     }
-    let e = app.world_mut().spawn(cloth).id();
-    app.update();
     let cap = app
         .world()
         .resource::<ClothSettingsDefaults>()
@@ -61,7 +112,14 @@ fn run(cloth: impl Bundle, wind: Option<Wind>) -> Run {
         iterations: Vec::with_capacity(FRAMES),
         cap,
         strain: 0.0,
+        bytes_per_particle: 0.0,
     };
+    // The app's own heap, settled, before the cloth exists.
+    app.update();
+    app.update();
+    let before = LIVE.load(Ordering::Relaxed);
+    let e = app.world_mut().spawn(build()).id();
+    app.update();
     for _ in 0..FRAMES {
         let start = Instant::now();
         app.update();
@@ -71,6 +129,9 @@ fn run(cloth: impl Bundle, wind: Option<Wind>) -> Run {
         out.iterations.push(stats.solver_iterations);
         out.strain = out.strain.max(stats.max_strain);
     }
+    let held = LIVE.load(Ordering::Relaxed).saturating_sub(before);
+    let particles = app.world().get::<ClothParticles>(e).expect("a cloth").len();
+    out.bytes_per_particle = held as f64 / particles as f64;
     out
 }
 
@@ -81,11 +142,12 @@ fn report(name: &str, mut run: Run) {
     let most = run.iterations.iter().max().copied().unwrap_or(0);
     let capped = run.iterations.iter().filter(|&&k| k >= run.cap).count();
     println!(
-        "| {name} | {:.2} | {:.2} | {:.2} | {mean:.1} | {most} | {capped} | {:.1} % |",
+        "| {name} | {:.2} | {:.2} | {:.2} | {mean:.1} | {most} | {capped} | {:.1} % | {:.0} |",
         at(0.5),
         at(0.95),
         at(1.0),
-        100.0 * run.strain
+        100.0 * run.strain,
+        run.bytes_per_particle
     );
 }
 
@@ -107,18 +169,20 @@ fn sheet(n: usize, edge: bool) -> ClothBundle {
 
 fn main() {
     println!(
-        "| scene | median ms | p95 ms | max ms | mean iterations | most | at the cap | strain |"
+        "| scene | median ms | p95 ms | max ms | mean iterations | most | at the cap | strain | heap bytes a particle |"
     );
-    println!("|---|---|---|---|---|---|---|---|");
+    println!("|---|---|---|---|---|---|---|---|---|");
     for n in sizes(&SIZES) {
-        report(&format!("grid {n}×{n}"), run(sheet(n, false), None));
+        report(&format!("grid {n}×{n}"), run(|| sheet(n, false), None));
     }
-    let disc = ClothBuilder::from_mesh(&disc_mesh(0.5, 36))
-        .position(Vec3::new(0.0, 2.0, 0.0))
-        .pin_where(|x| x.z.abs() < 0.01 && x.x.abs() > 0.49)
-        .build()
-        .expect("valid");
-    let particles = disc.particles.len();
+    let disc = || {
+        ClothBuilder::from_mesh(&disc_mesh(0.5, 36))
+            .position(Vec3::new(0.0, 2.0, 0.0))
+            .pin_where(|x| x.z.abs() < 0.01 && x.x.abs() > 0.49)
+            .build()
+            .expect("valid")
+    };
+    let particles = disc().particles.len();
     report(&format!("disc, {particles} particles"), run(disc, None));
     let gusty = Wind {
         velocity: Vec3::new(0.0, 0.0, 15.0),
@@ -128,6 +192,6 @@ fn main() {
     };
     report(
         "grid 64×64, 15 m/s gusts",
-        run(sheet(64, true), Some(gusty)),
+        run(|| sheet(64, true), Some(gusty)),
     );
 }
