@@ -5,7 +5,7 @@
 //!
 //! ```sh
 //! rustup target add wasm32-wasip1
-//! export CARGO_TARGET_WASM32_WASIP1_RUNNER="node tests/wasm/run.mjs"
+//! export CARGO_TARGET_WASM32_WASIP1_RUNNER="node $PWD/tests/wasm/run.mjs"
 //! CARGO_TARGET_WASM32_WASIP1_RUSTFLAGS="-C target-feature=+simd128" \
 //!     cargo test --manifest-path tests/wasm/Cargo.toml --target wasm32-wasip1
 //! cargo test --manifest-path tests/wasm/Cargo.toml --target wasm32-wasip1
