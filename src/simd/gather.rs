@@ -137,8 +137,9 @@ pub fn gather<'a>(
     }
 }
 
-/// What [`gather`] computes, one particle and one term at a time (its
-/// kernels fuse multiplies and adds, so they agree to rounding).
+/// What [`gather`] computes, one particle and one term at a time (the x86
+/// kernels fuse multiplies and adds and the simd128 one sums in its own
+/// order, so they agree to rounding).
 #[cfg(test)]
 pub fn reference<'a>(
     product: &Product,
