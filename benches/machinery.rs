@@ -26,7 +26,6 @@
 mod race;
 
 use bevy::prelude::*;
-use bevy::time::TimeUpdateStrategy;
 use bevy_cloth::prelude::*;
 use race::{Ours, Runner, Scene, race, sizes, summary};
 
@@ -67,11 +66,7 @@ fn runner(scene: &str, n: usize, settings: SimSettings) -> Ours {
         "motion" => Ours::in_scene(n, Scene::Motion, settings),
         "hanging" => Ours::in_scene(n, Scene::Hanging, settings),
         _ => {
-            let mut app = App::new();
-            app.add_plugins((MinimalPlugins, ClothPlugin::default()))
-                .insert_resource(Time::<Fixed>::from_hz(60.0))
-                .insert_resource(TimeUpdateStrategy::FixedTimesteps(1))
-                .insert_resource(ClothSettingsDefaults(settings));
+            let mut app = Ours::app(settings);
             app.world_mut().spawn((
                 ClothCollider::sphere(0.3).with_friction(0.5),
                 Transform::from_xyz(0.0, 1.0, 0.0),

@@ -94,13 +94,20 @@ impl Ours {
         Self::in_scene(n, Scene::Hanging, settings)
     }
 
-    /// The cloth of `scene` with `settings` as the defaults.
-    pub fn in_scene(n: usize, scene: Scene, settings: SimSettings) -> Self {
+    /// A headless app (`MinimalPlugins`, `ClothPlugin`) that steps at
+    /// 60 Hz, one fixed step a frame, with `settings` as the defaults.
+    pub fn app(settings: SimSettings) -> App {
         let mut app = App::new();
         app.add_plugins((MinimalPlugins, ClothPlugin::default()))
             .insert_resource(Time::<Fixed>::from_hz(60.0))
             .insert_resource(TimeUpdateStrategy::FixedTimesteps(1))
             .insert_resource(ClothSettingsDefaults(settings));
+        app
+    }
+
+    /// The cloth of `scene` with `settings` as the defaults.
+    pub fn in_scene(n: usize, scene: Scene, settings: SimSettings) -> Self {
+        let mut app = Self::app(settings);
         let builder = ClothBuilder::new(n as u32, n as u32).size(1.0, 1.0);
         let cloth = match scene {
             Scene::Hanging => builder
